@@ -1,0 +1,28 @@
+#pragma once
+// The Fast DDS adapter. This header names no Fast DDS type; only dds_*.cpp include them.
+#include <memory>
+
+#include "keyfleet/common/config.hpp"
+#include "keyfleet/common/logging.hpp"
+#include "keyfleet/common/transport.hpp"
+
+namespace keyfleet {
+
+// Topic names, shared by every process of a mission (partitions separate missions).
+inline constexpr const char* kKeyframeTopic = "keyfleet/keyframes";
+inline constexpr const char* kAgentStatsTopic = "keyfleet/agent_stats";
+inline constexpr const char* kKeyframeAckTopic = "keyfleet/keyframe_acks";
+
+// Sends Fast DDS's own log (errors, warnings) to `logger` instead of stdout.
+// Process-wide by Fast DDS's design: call once from main.
+void route_fastdds_log(Logger logger);
+
+// Applies the environment overrides KEYFLEET_DOMAIN and KEYFLEET_PARTITION; throws
+// StartupError when they are malformed.
+void apply_dds_environment(DdsSettings& settings);
+
+// Both throw StartupError naming the entity that could not be created.
+std::unique_ptr<AgentLink> make_dds_agent_link(const DdsSettings& settings, Logger logger);
+std::unique_ptr<StationLink> make_dds_station_link(const DdsSettings& settings, Logger logger);
+
+}  // namespace keyfleet

@@ -1,0 +1,47 @@
+#pragma once
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace keyfleet {
+
+struct ImageSize {
+  std::uint32_t width = 0;
+  std::uint32_t height = 0;
+};
+
+struct DecodeResult {
+  cv::Mat image;      // empty on failure
+  std::string error;  // what went wrong, when image is empty
+  bool ok() const { return !image.empty(); }
+};
+
+// Seam for how keyframe images travel: the agent encodes, the station decodes.
+class ImageCodec {
+ public:
+  virtual ~ImageCodec() = default;
+  virtual std::string encoding() const = 0;
+  virtual std::vector<std::uint8_t> encode(const cv::Mat& image) const = 0;
+  // Never throws: bad bytes give an error, not an exception.
+  virtual DecodeResult decode(const std::vector<std::uint8_t>& bytes) const = 0;
+};
+
+class JpegCodec final : public ImageCodec {
+ public:
+  explicit JpegCodec(int quality);
+  std::string encoding() const override { return "jpeg"; }
+  std::vector<std::uint8_t> encode(const cv::Mat& image) const override;
+  DecodeResult decode(const std::vector<std::uint8_t>& bytes) const override;
+
+ private:
+  int quality_;
+};
+
+// Reads the frame size from a JPEG's SOF marker without decoding it, so that a hostile
+// header cannot make the decoder allocate gigabytes. nullopt when there is no valid SOF.
+std::optional<ImageSize> jpeg_dimensions(const std::vector<std::uint8_t>& bytes);
+
+}  // namespace keyfleet

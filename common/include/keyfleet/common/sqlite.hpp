@@ -1,0 +1,66 @@
+#pragma once
+// A thin RAII layer over SQLite's C API: errors become exceptions carrying the file name.
+#include <sqlite3.h>
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace keyfleet {
+
+class SqliteError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class SqliteStatement {
+ public:
+  SqliteStatement(sqlite3* db, const std::string& sql, const std::string& origin);
+  ~SqliteStatement();
+  SqliteStatement(const SqliteStatement&) = delete;
+  SqliteStatement& operator=(const SqliteStatement&) = delete;
+  SqliteStatement(SqliteStatement&& other) noexcept;
+
+  SqliteStatement& bind(int index, std::int64_t value);
+  SqliteStatement& bind(int index, double value);
+  SqliteStatement& bind(int index, const std::string& value);
+  SqliteStatement& bind(int index, const std::vector<std::uint8_t>& blob);
+  SqliteStatement& bind_null(int index);
+
+  bool step();  // true while a row is available
+  void reset();
+
+  std::int64_t int64(int column) const;
+  double real(int column) const;
+  std::string text(int column) const;
+  std::vector<std::uint8_t> blob(int column) const;
+  bool is_null(int column) const;
+
+ private:
+  void check(int rc, const char* what) const;
+  sqlite3* db_;
+  sqlite3_stmt* stmt_ = nullptr;
+  std::string origin_;
+};
+
+class SqliteDb {
+ public:
+  enum class Mode { kReadWrite, kReadOnly };
+  // Opens (and in kReadWrite mode creates) the database; WAL journal in kReadWrite mode.
+  SqliteDb(const std::string& path, Mode mode = Mode::kReadWrite);
+  ~SqliteDb();
+  SqliteDb(const SqliteDb&) = delete;
+  SqliteDb& operator=(const SqliteDb&) = delete;
+
+  void exec(const std::string& sql);
+  SqliteStatement prepare(const std::string& sql);
+  std::int64_t changes() const;
+  const std::string& path() const { return path_; }
+
+ private:
+  sqlite3* db_ = nullptr;
+  std::string path_;
+};
+
+}  // namespace keyfleet

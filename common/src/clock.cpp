@@ -1,0 +1,13 @@
+#include "keyfleet/common/clock.hpp"
+
+#include <ctime>
+
+namespace keyfleet {
+
+double thread_cpu_ms() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
+}
+
+}  // namespace keyfleet

@@ -1,0 +1,417 @@
+// The one place where configuration structs meet YAML. Each struct is described once by a
+// visit() function; a Reader visitor loads and validates it, a Writer visitor prints it.
+#include <yaml-cpp/yaml.h>
+
+#include <fstream>
+#include <functional>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <type_traits>
+#include <utility>
+
+#include "keyfleet/common/config.hpp"
+#include "keyfleet/common/config_error.hpp"
+
+namespace keyfleet {
+namespace {
+
+template <class E>
+struct EnumNames;
+template <>
+struct EnumNames<DdsSettings::Transport> {
+  static constexpr std::pair<DdsSettings::Transport, const char*> kAll[] = {
+      {DdsSettings::Transport::kLocalhost, "localhost"},
+      {DdsSettings::Transport::kNetwork, "network"}};
+};
+template <>
+struct EnumNames<SourceConfig::Kind> {
+  static constexpr std::pair<SourceConfig::Kind, const char*> kAll[] = {
+      {SourceConfig::Kind::kGenerated, "generated"},
+      {SourceConfig::Kind::kImageFolder, "folder"},
+      {SourceConfig::Kind::kVideoFile, "video"}};
+};
+template <>
+struct EnumNames<SelectorConfig::Strategy> {
+  static constexpr std::pair<SelectorConfig::Strategy, const char*> kAll[] = {
+      {SelectorConfig::Strategy::kStride, "stride"}};
+};
+
+template <class E>
+std::string enum_choices() {
+  std::string out;
+  for (const auto& [value, name] : EnumNames<E>::kAll) {
+    (void)value;
+    out += out.empty() ? name : std::string("|") + name;
+  }
+  return out;
+}
+
+// A check returns an empty string when the value is allowed, else what is allowed.
+template <class T>
+using Check = std::function<std::string(const T&)>;
+
+template <class T>
+Check<T> at_least(T low) {
+  return [low](const T& v) {
+    std::ostringstream msg;
+    if (v < low) msg << "must be >= " << low;
+    return msg.str();
+  };
+}
+template <class T>
+Check<T> between(T low, T high) {
+  return [low, high](const T& v) {
+    std::ostringstream msg;
+    if (v < low || v > high) msg << "must be between " << low << " and " << high;
+    return msg.str();
+  };
+}
+Check<double> positive() {
+  return [](const double& v) { return v > 0 ? std::string() : std::string("must be > 0"); };
+}
+Check<std::string> one_of(std::set<std::string> allowed) {
+  return [allowed](const std::string& v) {
+    if (allowed.count(v)) return std::string();
+    std::string list;
+    for (const auto& a : allowed) list += list.empty() ? a : "|" + a;
+    return "must be one of " + list;
+  };
+}
+Check<std::string> robot_id_check() {
+  return [](const std::string& v) {
+    return is_valid_robot_id(v) ? std::string()
+                                : std::string("must match [A-Za-z0-9_-]{1,32}");
+  };
+}
+const std::set<std::string> kLogLevels = {"trace", "debug", "info", "warn", "error"};
+
+class Reader {
+ public:
+  Reader(YAML::Node node, std::string origin, std::string path)
+      : node_(std::move(node)), origin_(std::move(origin)), path_(std::move(path)) {
+    if (node_ && !node_.IsNull() && !node_.IsMap()) fail(node_, path_, "expected a mapping");
+  }
+
+  template <class T>
+  void field(const char* key, T& value, Check<T> check = {}) {
+    known_.insert(key);
+    if (!node_ || node_.IsNull()) return;
+    const YAML::Node child = node_[key];
+    if (!child) return;
+    const std::string where = join(key);
+    value = convert<T>(child, where);
+    if (check) {
+      const std::string problem = check(value);
+      if (!problem.empty()) fail(child, where, problem + " (got " + scalar_text(child) + ")");
+    }
+  }
+
+  template <class T>
+  void field(const char* key, std::optional<T>& value, Check<T> check = {}) {
+    known_.insert(key);
+    if (!node_ || node_.IsNull() || !node_[key]) return;
+    T inner{};
+    field(key, inner, check);
+    value = inner;
+  }
+
+  template <class S>
+  void section(const char* key, S& sub) {
+    known_.insert(key);
+    if (!node_ || node_.IsNull()) return;
+    const YAML::Node child = node_[key];
+    if (!child) return;
+    Reader nested(child, origin_, join(key));
+    visit(nested, sub);
+    nested.finish();
+  }
+
+  void finish() const {
+    if (!node_ || node_.IsNull()) return;
+    for (const auto& entry : node_) {
+      const std::string key = entry.first.as<std::string>();
+      if (known_.count(key)) continue;
+      std::string allowed;
+      for (const auto& k : known_) allowed += allowed.empty() ? k : ", " + k;
+      fail(entry.first, join(key.c_str()), "unknown key (allowed here: " + allowed + ")");
+    }
+  }
+
+  [[noreturn]] void fail(const YAML::Node& at, const std::string& where,
+                         const std::string& problem) const {
+    std::ostringstream msg;
+    msg << origin_;
+    if (at.Mark().line >= 0) msg << ":" << at.Mark().line + 1;
+    msg << ": " << where << ": " << problem;
+    throw ConfigError(msg.str());
+  }
+
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string join(const char* key) const { return path_.empty() ? key : path_ + "." + key; }
+
+  static std::string scalar_text(const YAML::Node& n) {
+    return n.IsScalar() ? "'" + n.Scalar() + "'" : "a non-scalar";
+  }
+
+  template <class T>
+  T convert(const YAML::Node& child, const std::string& where) const {
+    if constexpr (std::is_enum_v<T>) {
+      const std::string text = convert<std::string>(child, where);
+      for (const auto& [value, name] : EnumNames<T>::kAll)
+        if (text == name) return value;
+      fail(child, where, "must be one of " + enum_choices<T>() + " (got '" + text + "')");
+    } else if constexpr (std::is_same_v<T, std::vector<std::string>>) {
+      if (!child.IsSequence()) fail(child, where, "expected a list");
+      std::vector<std::string> out;
+      for (const auto& item : child) out.push_back(convert<std::string>(item, where));
+      return out;
+    } else {
+      if (!child.IsScalar()) fail(child, where, "expected a single value");
+      if constexpr (std::is_unsigned_v<T> && !std::is_same_v<T, bool>) {
+        if (!child.Scalar().empty() && child.Scalar()[0] == '-')
+          fail(child, where, "must not be negative (got '" + child.Scalar() + "')");
+      }
+      try {
+        return child.as<T>();
+      } catch (const YAML::Exception&) {
+        fail(child, where, std::string("expected ") + type_name<T>() + " (got " +
+                               scalar_text(child) + ")");
+      }
+    }
+  }
+
+  template <class T>
+  static const char* type_name() {
+    if constexpr (std::is_same_v<T, bool>) return "true or false";
+    if constexpr (std::is_integral_v<T>) return "an integer";
+    if constexpr (std::is_floating_point_v<T>) return "a number";
+    return "a string";
+  }
+
+  YAML::Node node_;
+  std::string origin_;
+  std::string path_;
+  std::set<std::string> known_;
+};
+
+class Writer {
+ public:
+  explicit Writer(YAML::Node node) : node_(std::move(node)) {}
+
+  template <class T, class C = std::nullptr_t>
+  void field(const char* key, const T& value, C = nullptr) {
+    if constexpr (std::is_enum_v<T>) {
+      for (const auto& [v, name] : EnumNames<T>::kAll)
+        if (v == value) node_[key] = name;
+    } else {
+      node_[key] = value;
+    }
+  }
+  template <class T, class C = std::nullptr_t>
+  void field(const char* key, const std::optional<T>& value, C = nullptr) {
+    if (value) field(key, *value);
+  }
+  template <class S>
+  void section(const char* key, S& sub) {
+    YAML::Node child(YAML::NodeType::Map);
+    Writer nested(child);
+    visit(nested, sub);
+    node_[key] = child;
+  }
+
+ private:
+  YAML::Node node_;
+};
+
+// --- The descriptions: one per struct, used by both visitors. -------------------------
+
+template <class V>
+void visit(V& v, DdsSettings& c) {
+  v.field("domain_id", c.domain_id, between(0, 232));
+  v.field("partition", c.partition, Check<std::string>([](const std::string& s) {
+            return s.empty() ? std::string("must not be empty") : std::string();
+          }));
+  v.field("transport", c.transport);
+  v.field("initial_peers", c.initial_peers);
+  v.field("lease_duration_s", c.lease_duration_s, positive());
+  v.field("announcement_period_s", c.announcement_period_s, positive());
+  v.field("keyframe_history_depth", c.keyframe_history_depth, between(1, 1000));
+  v.field("heartbeat_period_s", c.heartbeat_period_s, positive());
+}
+
+template <class V>
+void visit(V& v, SourceConfig& c) {
+  v.field("kind", c.kind);
+  v.field("path", c.path);
+  v.field("fps", c.fps, between(0.1, 1000.0));
+  v.field("realtime", c.realtime);
+  v.field("max_frames", c.max_frames);
+  v.field("width", c.width, between(16, 8192));
+  v.field("height", c.height, between(16, 8192));
+  v.field("seed", c.seed);
+}
+
+template <class V>
+void visit(V& v, SelectorConfig& c) {
+  v.field("strategy", c.strategy);
+  v.field("stride", c.stride, between(1, 100000));
+}
+
+template <class V>
+void visit(V& v, CodecConfig& c) {
+  v.field("jpeg_quality", c.jpeg_quality, between(1, 100));
+}
+
+template <class V>
+void visit(V& v, LedgerConfig& c) {
+  v.field("baseline_sample_every", c.baseline_sample_every, between(1, 100000));
+}
+
+template <class V>
+void visit(V& v, OutboxConfig& c) {
+  v.field("path", c.path);
+  v.field("max_pending", c.max_pending, at_least<std::uint64_t>(1));
+  v.field("max_age_s", c.max_age_s, positive());
+  v.field("resend_after_s", c.resend_after_s, positive());
+  v.field("resend_batch", c.resend_batch, between(1, 100000));
+}
+
+template <class V>
+void visit(V& v, AgentConfig& c) {
+  v.field("robot_id", c.robot_id, robot_id_check());
+  v.section("source", c.source);
+  v.section("selector", c.selector);
+  v.section("codec", c.codec);
+  v.section("ledger", c.ledger);
+  v.section("outbox", c.outbox);
+  v.section("dds", c.dds);
+  v.field("stats_period_s", c.stats_period_s, positive());
+  v.field("wait_for_station_s", c.wait_for_station_s, at_least(0.0));
+  v.field("drain_timeout_s", c.drain_timeout_s, at_least(0.0));
+  v.field("log_level", c.log_level, one_of(kLogLevels));
+}
+
+template <class V>
+void visit(V& v, StationLimits& c) {
+  v.field("max_image_bytes", c.max_image_bytes, at_least<std::uint64_t>(1));
+  v.field("max_width", c.max_width, at_least<std::uint32_t>(1));
+  v.field("max_height", c.max_height, at_least<std::uint32_t>(1));
+}
+
+template <class V>
+void visit(V& v, StationConfig& c) {
+  v.section("dds", c.dds);
+  v.section("limits", c.limits);
+  v.field("database", c.database);
+  v.field("mission_log", c.mission_log);
+  v.field("report_period_s", c.report_period_s, positive());
+  v.field("log_level", c.log_level, one_of(kLogLevels));
+}
+
+template <class V>
+void visit(V& v, MissionConfig& c) {
+  v.field("name", c.name, Check<std::string>([](const std::string& s) {
+            return std::regex_match(s, std::regex("[A-Za-z0-9_.-]{1,64}"))
+                       ? std::string()
+                       : std::string("must match [A-Za-z0-9_.-]{1,64}");
+          }));
+  v.field("drones", c.drones, between(1, 64));
+  v.field("robot_id_prefix", c.robot_id_prefix);
+  v.field("run_root", c.run_root);
+  v.field("domain_id", c.domain_id, between(0, 232));
+  v.field("agent_timeout_s", c.agent_timeout_s, positive());
+  v.field("station_drain_timeout_s", c.station_drain_timeout_s, positive());
+  v.section("agent", c.agent);
+  v.section("station", c.station);
+}
+
+// Cross-field rules that a single key cannot express.
+void validate(const AgentConfig& c, const std::string& origin) {
+  const bool needs_path = c.source.kind != SourceConfig::Kind::kGenerated;
+  if (needs_path && c.source.path.empty())
+    throw ConfigError(origin + ": source.path: required when source.kind is folder or video");
+  if (c.source.kind == SourceConfig::Kind::kGenerated && c.source.max_frames == 0)
+    throw ConfigError(origin + ": source.max_frames: required (> 0) for a generated source");
+}
+
+void validate(const MissionConfig& c, const std::string& origin) {
+  validate(c.agent, origin + " (agent)");
+  if (!is_valid_robot_id(c.robot_id_prefix + std::to_string(c.drones - 1)))
+    throw ConfigError(origin + ": robot_id_prefix: '" + c.robot_id_prefix +
+                      "' does not make valid robot ids ([A-Za-z0-9_-]{1,32})");
+}
+void validate(const StationConfig&, const std::string&) {}
+
+YAML::Node parse_yaml(const std::string& text, const std::string& origin) {
+  try {
+    return YAML::Load(text);
+  } catch (const YAML::ParserException& e) {
+    throw ConfigError(origin + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML: " +
+                      e.msg);
+  }
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError(path + ": cannot read config file (missing or unreadable)");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+template <class Config>
+Config parse(const std::string& text, const std::string& origin) {
+  Config config;
+  Reader reader(parse_yaml(text, origin), origin, "");
+  visit(reader, config);
+  reader.finish();
+  validate(config, origin);
+  return config;
+}
+
+template <class Config>
+std::string emit(const Config& config) {
+  Config copy = config;
+  YAML::Node root(YAML::NodeType::Map);
+  Writer writer(root);
+  visit(writer, copy);
+  YAML::Emitter out;
+  out << root;
+  return out.c_str();
+}
+
+}  // namespace
+
+bool is_valid_robot_id(const std::string& robot_id) {
+  static const std::regex pattern("[A-Za-z0-9_-]{1,32}");
+  return std::regex_match(robot_id, pattern);
+}
+
+AgentConfig parse_agent_config(const std::string& text, const std::string& origin) {
+  return parse<AgentConfig>(text, origin);
+}
+StationConfig parse_station_config(const std::string& text, const std::string& origin) {
+  return parse<StationConfig>(text, origin);
+}
+MissionConfig parse_mission_config(const std::string& text, const std::string& origin) {
+  return parse<MissionConfig>(text, origin);
+}
+
+AgentConfig load_agent_config(const std::string& path) {
+  return parse_agent_config(read_file(path), path);
+}
+StationConfig load_station_config(const std::string& path) {
+  return parse_station_config(read_file(path), path);
+}
+MissionConfig load_mission_config(const std::string& path) {
+  return parse_mission_config(read_file(path), path);
+}
+
+std::string to_yaml(const AgentConfig& config) { return emit(config); }
+std::string to_yaml(const StationConfig& config) { return emit(config); }
+std::string to_yaml(const MissionConfig& config) { return emit(config); }
+
+}  // namespace keyfleet

@@ -1,0 +1,159 @@
+#include "dds_participant.hpp"
+
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
+#include <fastrtps/utils/IPLocator.h>
+
+#include "keyfleet/common/error.hpp"
+
+namespace keyfleet::dds {
+namespace {
+
+using eprosima::fastrtps::Duration_t;
+using eprosima::fastrtps::rtps::IPLocator;
+using eprosima::fastrtps::rtps::Locator_t;
+
+constexpr std::uint32_t kShmSegmentBytes = 8u << 20;
+constexpr std::uint32_t kUdpBufferBytes = 4u << 20;
+constexpr std::uint32_t kMaxInitialPeersRange = 16;
+
+Locator_t udp_locator(const std::string& address) {
+  Locator_t locator;
+  locator.kind = LOCATOR_KIND_UDPv4;
+  if (!IPLocator::setIPv4(locator, address) || !IPLocator::isIPv4(address))
+    throw StartupError("dds.initial_peers: '" + address + "' is not an IPv4 address");
+  return locator;
+}
+
+fdds::DomainParticipantQos participant_qos(const DdsSettings& s, const std::string& name) {
+  fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
+  qos.name(name);
+  auto& discovery = qos.wire_protocol().builtin.discovery_config;
+  discovery.leaseDuration = Duration_t(static_cast<long double>(s.lease_duration_s));
+  discovery.leaseDuration_announcementperiod =
+      Duration_t(static_cast<long double>(s.announcement_period_s));
+
+  if (s.transport == DdsSettings::Transport::kLocalhost) {
+    // No built-in transports: the defaults announce on every interface by multicast.
+    qos.transport().use_builtin_transports = false;
+    auto shm = std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>();
+    shm->segment_size(kShmSegmentBytes);
+    auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+    udp->interfaceWhiteList.emplace_back("127.0.0.1");
+    udp->sendBufferSize = kUdpBufferBytes;
+    udp->receiveBufferSize = kUdpBufferBytes;
+    udp->maxInitialPeersRange = kMaxInitialPeersRange;
+    qos.transport().user_transports.push_back(shm);
+    qos.transport().user_transports.push_back(udp);
+    qos.wire_protocol().builtin.initialPeersList.push_back(udp_locator("127.0.0.1"));
+    qos.wire_protocol().builtin.metatrafficUnicastLocatorList.push_back(udp_locator("127.0.0.1"));
+  } else {
+    for (const auto& peer : s.initial_peers)
+      qos.wire_protocol().builtin.initialPeersList.push_back(udp_locator(peer));
+  }
+  return qos;
+}
+
+}  // namespace
+
+Participant::Participant(const DdsSettings& settings, const std::string& name, Logger logger)
+    : settings_(settings), logger_(std::move(logger)) {
+  auto* factory = fdds::DomainParticipantFactory::get_instance();
+  participant_ = factory->create_participant(static_cast<fdds::DomainId_t>(settings.domain_id),
+                                             participant_qos(settings, name));
+  if (!participant_)
+    throw StartupError("cannot create DDS participant on domain " +
+                       std::to_string(settings.domain_id) + " (see the Fast DDS errors above)");
+  fdds::PublisherQos pub_qos = fdds::PUBLISHER_QOS_DEFAULT;
+  pub_qos.partition().push_back(settings.partition.c_str());
+  publisher_ = participant_->create_publisher(pub_qos);
+  fdds::SubscriberQos sub_qos = fdds::SUBSCRIBER_QOS_DEFAULT;
+  sub_qos.partition().push_back(settings.partition.c_str());
+  subscriber_ = participant_->create_subscriber(sub_qos);
+  if (!publisher_ || !subscriber_) {
+    factory->delete_participant(participant_);
+    throw StartupError("cannot create DDS publisher/subscriber for partition '" +
+                       settings.partition + "'");
+  }
+  logger_->info("DDS participant '{}' on domain {} partition '{}' ({})", name, settings.domain_id,
+                settings.partition,
+                settings.transport == DdsSettings::Transport::kLocalhost ? "localhost only"
+                                                                         : "network");
+}
+
+Participant::~Participant() {
+  if (!participant_) return;
+  participant_->delete_contained_entities();
+  fdds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+}
+
+fdds::Topic* Participant::topic(const std::string& name, fdds::TypeSupport type) {
+  if (type.register_type(participant_) != ReturnCode_t::RETCODE_OK)
+    throw StartupError("cannot register DDS type " + type.get_type_name());
+  fdds::Topic* topic = participant_->create_topic(name, type.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
+  if (!topic) throw StartupError("cannot create DDS topic " + name);
+  return topic;
+}
+
+fdds::DataWriter* Participant::writer(fdds::Topic* topic, Stream stream) {
+  fdds::DataWriterQos qos = publisher_->get_default_datawriter_qos();
+  qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+  qos.endpoint().history_memory_policy =
+      eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
+  qos.data_sharing().off();
+  qos.reliable_writer_qos().times.heartbeatPeriod =
+      Duration_t(static_cast<long double>(settings_.heartbeat_period_s));
+  qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+  switch (stream) {
+    case Stream::kKeyframes:
+      qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+      qos.history().depth = settings_.keyframe_history_depth;
+      break;
+    case Stream::kStats:
+      qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+      qos.history().depth = 1;
+      break;
+    case Stream::kAcks:
+      qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+      qos.history().depth = 256;
+      break;
+  }
+  fdds::DataWriter* writer = publisher_->create_datawriter(topic, qos);
+  if (!writer) throw StartupError("cannot create DDS writer on " + topic->get_name());
+  return writer;
+}
+
+fdds::DataReader* Participant::reader(fdds::Topic* topic, Stream stream) {
+  fdds::DataReaderQos qos = subscriber_->get_default_datareader_qos();
+  qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+  qos.endpoint().history_memory_policy =
+      eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
+  qos.data_sharing().off();
+  switch (stream) {
+    case Stream::kKeyframes:
+      // KEEP_ALL bounded: when the station falls behind, the writer waits, nothing is lost.
+      qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+      qos.history().kind = fdds::KEEP_ALL_HISTORY_QOS;
+      qos.resource_limits().max_samples = 256;
+      qos.resource_limits().max_samples_per_instance = 256;
+      qos.resource_limits().allocated_samples = 16;
+      break;
+    case Stream::kStats:
+      qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+      qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+      qos.history().depth = 64;
+      break;
+    case Stream::kAcks:
+      qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+      qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+      qos.history().depth = 1024;
+      break;
+  }
+  fdds::DataReader* reader = subscriber_->create_datareader(topic, qos);
+  if (!reader) throw StartupError("cannot create DDS reader on " + topic->get_name());
+  reader->get_statuscondition().set_enabled_statuses(fdds::StatusMask::data_available());
+  return reader;
+}
+
+}  // namespace keyfleet::dds

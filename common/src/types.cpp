@@ -1,0 +1,14 @@
+#include "keyfleet/common/types.hpp"
+
+namespace keyfleet {
+
+const char* to_string(AckStatus status) {
+  switch (status) {
+    case AckStatus::kStored: return "stored";
+    case AckStatus::kDuplicate: return "duplicate";
+    case AckStatus::kRejected: return "rejected";
+  }
+  return "unknown";
+}
+
+}  // namespace keyfleet

@@ -1,0 +1,93 @@
+// ground_station: composition root of the station that stores the fleet's keyframes.
+#include <CLI/CLI.hpp>
+
+#include <filesystem>
+#include <iostream>
+
+#include "keyfleet/common/clock.hpp"
+#include "keyfleet/common/dds_transport.hpp"
+#include "keyfleet/common/shutdown_signal.hpp"
+#include "keyfleet/station/bandwidth_report.hpp"
+#include "keyfleet/station/ground_station.hpp"
+
+namespace {
+
+using namespace keyfleet;
+namespace fs = std::filesystem;
+
+struct Options {
+  std::string config_path;
+  std::string run_dir = ".";
+  std::string log_file;
+  std::optional<int> domain;
+  std::string partition;
+};
+
+int run(const Options& options) {
+  StationConfig config = load_station_config(options.config_path);
+  apply_dds_environment(config.dds);
+  if (options.domain) config.dds.domain_id = *options.domain;
+  if (!options.partition.empty()) config.dds.partition = options.partition;
+  fs::create_directories(options.run_dir);
+
+  Logger logger = make_logger("station", config.log_level, options.log_file);
+  route_fastdds_log(logger);
+  logger->info("effective configuration:\n{}", to_yaml(config));
+
+  ShutdownSignal shutdown;
+  station::KeyframeStore store((fs::path(options.run_dir) / config.database).string());
+  station::MissionLog mission_log((fs::path(options.run_dir) / config.mission_log).string());
+  auto link = make_dds_station_link(config.dds, logger);
+  station::GroundStation station(config.limits, store, mission_log, *link, logger);
+  mission_log.event("station started", wall_time_ns());
+  logger->info("station ready: {} keyframe(s) already in {}", store.keyframe_count(), store.path());
+
+  using Clock = std::chrono::steady_clock;
+  const auto report_period = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(config.report_period_s));
+  auto next_report = Clock::now() + report_period;
+  while (!shutdown.stop.requested()) {
+    station.step(std::chrono::milliseconds(100));
+    if (Clock::now() >= next_report) {
+      const auto report = station::build_bandwidth_report(store.totals());
+      logger->info("{} robot(s), {} keyframes stored, {} bytes received", report.robots.size(),
+                   report.fleet.keyframes_stored, report.fleet.bytes_received);
+      next_report = Clock::now() + report_period;
+    }
+  }
+  // Drain what already arrived before leaving.
+  while (station.step(std::chrono::milliseconds(0)) > 0) {
+  }
+  mission_log.event("station stopped", wall_time_ns());
+  const std::string table =
+      station::write_bandwidth_report(station::build_bandwidth_report(store.totals()),
+                                      options.run_dir);
+  std::cout << table << std::flush;
+  logger->info("stopped by signal {}; report in {}", shutdown.received(),
+               (fs::path(options.run_dir) / "report.json").string());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  keyfleet::block_termination_signals();
+  Options options;
+  CLI::App app{"keyfleet ground station: stores and reports the fleet's keyframes"};
+  app.add_option("-c,--config", options.config_path, "station YAML config")
+      ->required()
+      ->check(CLI::ExistingFile);
+  app.add_option("--run-dir", options.run_dir, "folder for the database, log and reports");
+  app.add_option("--log-file", options.log_file, "also log to this file");
+  app.add_option("--domain", options.domain, "DDS domain id (overrides config and KEYFLEET_DOMAIN)")
+      ->check(CLI::Range(0, 232));
+  app.add_option("--partition", options.partition,
+                 "DDS partition (overrides config and KEYFLEET_PARTITION)");
+  CLI11_PARSE(app, argc, argv);
+  try {
+    return run(options);
+  } catch (const std::exception& e) {
+    std::cerr << "ground_station: error: " << e.what() << "\n";
+    return 1;
+  }
+}

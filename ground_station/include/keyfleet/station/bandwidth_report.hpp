@@ -1,0 +1,49 @@
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "keyfleet/station/keyframe_store.hpp"
+
+namespace keyfleet::station {
+
+// One line of the report: what the station received from a robot, against what the
+// robot says streaming every frame or every V-SLAM keyframe would have cost.
+struct BandwidthRow {
+  std::string robot_id;  // "FLEET" for the sum
+  std::uint64_t keyframes_stored = 0;
+  std::uint64_t rejected = 0;
+  std::uint64_t bytes_received = 0;  // serialized samples, first copies, measured at the station
+  std::uint64_t frames_seen = 0;
+  std::uint64_t vslam_keyframes = 0;
+  std::uint64_t keyframes_sent = 0;
+  std::uint64_t keyframes_resent = 0;
+  std::uint64_t keyframes_dropped = 0;
+  std::uint64_t keyframes_pending = 0;
+  std::uint64_t bytes_sent_total = 0;  // agent's own count, retransmissions included
+  std::uint64_t stream_all_bytes = 0;
+  bool stream_all_estimated = false;
+  std::uint64_t vslam_keyframe_bytes = 0;
+  bool vslam_keyframe_estimated = false;
+  bool has_agent_stats = false;
+  bool agent_finished = false;
+  double keyframes_per_minute = 0;  // over the span the station received them
+  double saving_vs_stream_all() const;  // stream_all_bytes / bytes_received (0 if unknown)
+  double saving_vs_vslam() const;
+};
+
+struct BandwidthReport {
+  std::vector<BandwidthRow> robots;
+  BandwidthRow fleet;
+};
+
+BandwidthReport build_bandwidth_report(const std::vector<RobotTotals>& totals);
+
+std::string format_table(const BandwidthReport& report);
+std::string to_json(const BandwidthReport& report);
+std::string to_csv(const BandwidthReport& report);
+
+// Writes report.json and report.csv into `run_dir`; returns the table text.
+std::string write_bandwidth_report(const BandwidthReport& report, const std::string& run_dir);
+
+}  // namespace keyfleet::station

@@ -1,0 +1,42 @@
+#pragma once
+#include <chrono>
+#include <memory>
+#include <set>
+
+#include "keyfleet/common/config.hpp"
+#include "keyfleet/common/image_codec.hpp"
+#include "keyfleet/common/logging.hpp"
+#include "keyfleet/common/transport.hpp"
+#include "keyfleet/station/keyframe_store.hpp"
+#include "keyfleet/station/mission_log.hpp"
+
+namespace keyfleet::station {
+
+// The station's per-message work as synchronous steps: validate, store exactly once,
+// log, acknowledge. Bad samples are rejected with a reason and never stop it.
+class GroundStation {
+ public:
+  GroundStation(const StationLimits& limits, KeyframeStore& store, MissionLog& log,
+                StationLink& link, Logger logger);
+
+  KeyframeAck handle(const ReceivedKeyframe& received, std::int64_t now_ns);
+  void handle(const AgentStats& stats);
+  // Takes what the link has (waiting up to `wait`), handles and acknowledges it.
+  // Returns the number of keyframes handled.
+  std::size_t step(std::chrono::milliseconds wait);
+
+  const std::set<std::string>& robots() const { return robots_; }
+
+ private:
+  void note_robot(const std::string& robot_id);
+
+  StationLimits limits_;
+  KeyframeStore& store_;
+  MissionLog& log_;
+  StationLink& link_;
+  Logger logger_;
+  JpegCodec codec_{90};
+  std::set<std::string> robots_;
+};
+
+}  // namespace keyfleet::station

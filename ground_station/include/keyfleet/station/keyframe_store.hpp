@@ -1,0 +1,46 @@
+#pragma once
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "keyfleet/common/sqlite.hpp"
+#include "keyfleet/common/types.hpp"
+
+namespace keyfleet::station {
+
+enum class StoreOutcome { kStored, kDuplicate };
+
+struct RobotTotals {
+  std::string robot_id;
+  std::uint64_t keyframes = 0;
+  std::uint64_t image_bytes = 0;
+  std::uint64_t serialized_bytes = 0;  // as received on the wire
+  std::uint64_t rejected = 0;
+  std::int64_t first_received_ns = 0;
+  std::int64_t last_received_ns = 0;
+  std::optional<AgentStats> latest_stats;  // the robot's own account, when received
+};
+
+// The station's durable store: one SQLite file (WAL) with every keyframe (JPEG and
+// metadata) exactly once per (robot, sequence), rejections, and each robot's latest stats.
+class KeyframeStore {
+ public:
+  explicit KeyframeStore(const std::string& path);
+
+  StoreOutcome store(const Keyframe& keyframe, std::uint64_t serialized_bytes,
+                     std::int64_t received_ns);
+  // Records a rejected sample; true when this (robot, sequence) was not recorded before.
+  bool record_rejection(const std::string& robot_id, std::uint64_t sequence,
+                        const std::string& reason, std::int64_t received_ns);
+  void record_stats(const AgentStats& stats);
+
+  std::vector<RobotTotals> totals() const;
+  std::uint64_t keyframe_count() const;
+  const std::string& path() const { return db_.path(); }
+
+ private:
+  mutable SqliteDb db_;
+};
+
+}  // namespace keyfleet::station

@@ -1,0 +1,184 @@
+#include "keyfleet/station/bandwidth_report.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace keyfleet::station {
+namespace {
+
+double ratio(std::uint64_t numerator, std::uint64_t denominator) {
+  return denominator == 0 ? 0.0 : static_cast<double>(numerator) / static_cast<double>(denominator);
+}
+
+std::string human_bytes(std::uint64_t bytes) {
+  char text[32];
+  const double b = static_cast<double>(bytes);
+  if (b >= 1e9) std::snprintf(text, sizeof text, "%.2f GB", b / 1e9);
+  else if (b >= 1e6) std::snprintf(text, sizeof text, "%.2f MB", b / 1e6);
+  else if (b >= 1e3) std::snprintf(text, sizeof text, "%.1f kB", b / 1e3);
+  else std::snprintf(text, sizeof text, "%llu B", static_cast<unsigned long long>(bytes));
+  return text;
+}
+
+std::string with_label(std::uint64_t bytes, bool estimated, bool known) {
+  if (!known) return "n/a";
+  return human_bytes(bytes) + (estimated ? " (est.)" : "");
+}
+
+void accumulate(BandwidthRow& sum, const BandwidthRow& r) {
+  sum.keyframes_stored += r.keyframes_stored;
+  sum.rejected += r.rejected;
+  sum.bytes_received += r.bytes_received;
+  sum.frames_seen += r.frames_seen;
+  sum.vslam_keyframes += r.vslam_keyframes;
+  sum.keyframes_sent += r.keyframes_sent;
+  sum.keyframes_resent += r.keyframes_resent;
+  sum.keyframes_dropped += r.keyframes_dropped;
+  sum.keyframes_pending += r.keyframes_pending;
+  sum.bytes_sent_total += r.bytes_sent_total;
+  sum.stream_all_bytes += r.stream_all_bytes;
+  sum.stream_all_estimated = sum.stream_all_estimated || r.stream_all_estimated;
+  sum.vslam_keyframe_bytes += r.vslam_keyframe_bytes;
+  sum.vslam_keyframe_estimated = sum.vslam_keyframe_estimated || r.vslam_keyframe_estimated;
+  sum.has_agent_stats = sum.has_agent_stats || r.has_agent_stats;
+  sum.keyframes_per_minute += r.keyframes_per_minute;
+}
+
+}  // namespace
+
+double BandwidthRow::saving_vs_stream_all() const { return ratio(stream_all_bytes, bytes_received); }
+double BandwidthRow::saving_vs_vslam() const { return ratio(vslam_keyframe_bytes, bytes_received); }
+
+BandwidthReport build_bandwidth_report(const std::vector<RobotTotals>& totals) {
+  BandwidthReport report;
+  report.fleet.robot_id = "FLEET";
+  report.fleet.agent_finished = true;
+  for (const auto& t : totals) {
+    BandwidthRow row;
+    row.robot_id = t.robot_id;
+    row.keyframes_stored = t.keyframes;
+    row.rejected = t.rejected;
+    row.bytes_received = t.serialized_bytes;
+    const double span_min = static_cast<double>(t.last_received_ns - t.first_received_ns) / 60e9;
+    row.keyframes_per_minute = span_min > 0 ? static_cast<double>(t.keyframes) / span_min : 0;
+    if (t.latest_stats) {
+      const AgentStats& s = *t.latest_stats;
+      row.has_agent_stats = true;
+      row.agent_finished = s.finished;
+      row.frames_seen = s.frames_seen;
+      row.vslam_keyframes = s.vslam_keyframes;
+      row.keyframes_sent = s.keyframes_sent;
+      row.keyframes_resent = s.keyframes_resent;
+      row.keyframes_dropped = s.keyframes_dropped;
+      row.keyframes_pending = s.keyframes_pending;
+      row.bytes_sent_total = s.bytes_sent + s.bytes_resent;
+      row.stream_all_bytes = s.stream_all_bytes;
+      row.stream_all_estimated = s.stream_all_estimated;
+      row.vslam_keyframe_bytes = s.vslam_keyframe_bytes;
+      row.vslam_keyframe_estimated = s.vslam_keyframe_estimated;
+    }
+    report.fleet.agent_finished = report.fleet.agent_finished && row.agent_finished;
+    accumulate(report.fleet, row);
+    report.robots.push_back(row);
+  }
+  return report;
+}
+
+std::string format_table(const BandwidthReport& report) {
+  std::ostringstream out;
+  char line[400];
+  std::snprintf(line, sizeof line, "%-10s %6s %5s %10s %12s %9s %6s %14s %8s %14s %8s %7s\n",
+                "robot", "stored", "rej", "received", "frames seen", "resent", "lost",
+                "stream-all", "saving", "every V-SLAM", "saving", "kf/min");
+  out << line;
+  auto print = [&](const BandwidthRow& r) {
+    const bool known = r.has_agent_stats;
+    char saving_all[16] = "n/a", saving_vslam[16] = "n/a";
+    if (known && r.bytes_received) {
+      std::snprintf(saving_all, sizeof saving_all, "%.1fx", r.saving_vs_stream_all());
+      std::snprintf(saving_vslam, sizeof saving_vslam, "%.1fx", r.saving_vs_vslam());
+    }
+    std::snprintf(line, sizeof line,
+                  "%-10s %6llu %5llu %10s %12s %9llu %6llu %14s %8s %14s %8s %7.1f\n",
+                  r.robot_id.c_str(), static_cast<unsigned long long>(r.keyframes_stored),
+                  static_cast<unsigned long long>(r.rejected), human_bytes(r.bytes_received).c_str(),
+                  known ? std::to_string(r.frames_seen).c_str() : "n/a",
+                  static_cast<unsigned long long>(r.keyframes_resent),
+                  static_cast<unsigned long long>(r.keyframes_dropped),
+                  with_label(r.stream_all_bytes, r.stream_all_estimated, known).c_str(), saving_all,
+                  with_label(r.vslam_keyframe_bytes, r.vslam_keyframe_estimated, known).c_str(),
+                  saving_vslam, r.keyframes_per_minute);
+    out << line;
+  };
+  for (const auto& r : report.robots) print(r);
+  print(report.fleet);
+  out << "received = serialized DDS samples stored by the station (first copies); stream-all = "
+         "every camera frame sent as a JPEG keyframe sample; (est.) = extrapolated from sampled "
+         "frames; lost = dropped by the agent's outbox bounds.\n";
+  return out.str();
+}
+
+std::string to_json(const BandwidthReport& report) {
+  auto row_json = [](const BandwidthRow& r) {
+    return nlohmann::json{{"robot_id", r.robot_id},
+                          {"keyframes_stored", r.keyframes_stored},
+                          {"rejected", r.rejected},
+                          {"bytes_received", r.bytes_received},
+                          {"has_agent_stats", r.has_agent_stats},
+                          {"agent_finished", r.agent_finished},
+                          {"frames_seen", r.frames_seen},
+                          {"vslam_keyframes", r.vslam_keyframes},
+                          {"keyframes_sent", r.keyframes_sent},
+                          {"keyframes_resent", r.keyframes_resent},
+                          {"keyframes_dropped", r.keyframes_dropped},
+                          {"keyframes_pending", r.keyframes_pending},
+                          {"bytes_sent_total", r.bytes_sent_total},
+                          {"stream_all_bytes", r.stream_all_bytes},
+                          {"stream_all_estimated", r.stream_all_estimated},
+                          {"vslam_keyframe_bytes", r.vslam_keyframe_bytes},
+                          {"vslam_keyframe_estimated", r.vslam_keyframe_estimated},
+                          {"saving_vs_stream_all", r.saving_vs_stream_all()},
+                          {"saving_vs_vslam", r.saving_vs_vslam()},
+                          {"keyframes_per_minute", r.keyframes_per_minute}};
+  };
+  nlohmann::json doc;
+  doc["robots"] = nlohmann::json::array();
+  for (const auto& r : report.robots) doc["robots"].push_back(row_json(r));
+  doc["fleet"] = row_json(report.fleet);
+  return doc.dump(2);
+}
+
+std::string to_csv(const BandwidthReport& report) {
+  std::ostringstream out;
+  out << "robot_id,keyframes_stored,rejected,bytes_received,frames_seen,vslam_keyframes,"
+         "keyframes_sent,keyframes_resent,keyframes_dropped,keyframes_pending,bytes_sent_total,"
+         "stream_all_bytes,stream_all_estimated,vslam_keyframe_bytes,vslam_keyframe_estimated,"
+         "saving_vs_stream_all,saving_vs_vslam,keyframes_per_minute\n";
+  auto row = [&](const BandwidthRow& r) {
+    out << r.robot_id << ',' << r.keyframes_stored << ',' << r.rejected << ',' << r.bytes_received
+        << ',' << r.frames_seen << ',' << r.vslam_keyframes << ',' << r.keyframes_sent << ','
+        << r.keyframes_resent << ',' << r.keyframes_dropped << ',' << r.keyframes_pending << ','
+        << r.bytes_sent_total << ',' << r.stream_all_bytes << ',' << r.stream_all_estimated << ','
+        << r.vslam_keyframe_bytes << ',' << r.vslam_keyframe_estimated << ','
+        << r.saving_vs_stream_all() << ',' << r.saving_vs_vslam() << ','
+        << r.keyframes_per_minute << '\n';
+  };
+  for (const auto& r : report.robots) row(r);
+  row(report.fleet);
+  return out.str();
+}
+
+std::string write_bandwidth_report(const BandwidthReport& report, const std::string& run_dir) {
+  const std::filesystem::path dir(run_dir);
+  std::ofstream(dir / "report.json") << to_json(report) << '\n';
+  std::ofstream(dir / "report.csv") << to_csv(report);
+  const std::string table = format_table(report);
+  std::ofstream(dir / "report.txt") << table;
+  return table;
+}
+
+}  // namespace keyfleet::station

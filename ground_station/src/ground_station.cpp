@@ -1,0 +1,75 @@
+#include "keyfleet/station/ground_station.hpp"
+
+#include "keyfleet/common/clock.hpp"
+#include "keyfleet/station/keyframe_validator.hpp"
+
+namespace keyfleet::station {
+
+GroundStation::GroundStation(const StationLimits& limits, KeyframeStore& store, MissionLog& log,
+                             StationLink& link, Logger logger)
+    : limits_(limits), store_(store), log_(log), link_(link), logger_(std::move(logger)) {}
+
+void GroundStation::note_robot(const std::string& robot_id) {
+  if (!is_valid_robot_id(robot_id) || robots_.count(robot_id)) return;
+  robots_.insert(robot_id);
+  logger_->info("robot '{}' joined ({} robot(s) so far)", robot_id, robots_.size());
+  log_.event("robot joined: " + robot_id, wall_time_ns());
+}
+
+KeyframeAck GroundStation::handle(const ReceivedKeyframe& received, std::int64_t now_ns) {
+  const Keyframe& k = received.keyframe;
+  KeyframeAck ack{k.robot_id, k.sequence_number, AckStatus::kStored, {}};
+  if (auto problem = find_keyframe_problem(k, limits_, codec_)) {
+    ack.status = AckStatus::kRejected;
+    ack.reason = *problem;
+    if (store_.record_rejection(k.robot_id.substr(0, 64), k.sequence_number, *problem, now_ns)) {
+      log_.rejected(k.robot_id.substr(0, 64), k.sequence_number, *problem, now_ns);
+      logger_->error("rejected keyframe {} from '{}': {}", k.sequence_number,
+                     k.robot_id.substr(0, 64), *problem);
+    }
+    return ack;
+  }
+  note_robot(k.robot_id);
+  if (store_.store(k, received.serialized_bytes, now_ns) == StoreOutcome::kDuplicate) {
+    ack.status = AckStatus::kDuplicate;
+    logger_->debug("duplicate keyframe {} from {} acknowledged again", k.sequence_number,
+                   k.robot_id);
+    return ack;
+  }
+  log_.keyframe(k, received.serialized_bytes, now_ns);
+  logger_->debug("stored keyframe {} from {} ({} bytes)", k.sequence_number, k.robot_id,
+                 received.serialized_bytes);
+  return ack;
+}
+
+void GroundStation::handle(const AgentStats& stats) {
+  if (!is_valid_robot_id(stats.robot_id)) {
+    logger_->error("ignored agent stats with a malformed robot id '{}'",
+                   stats.robot_id.substr(0, 64));
+    return;
+  }
+  note_robot(stats.robot_id);
+  store_.record_stats(stats);
+  log_.agent_stats(stats);
+}
+
+std::size_t GroundStation::step(std::chrono::milliseconds wait) {
+  StationInbox inbox = link_.take(wait, 64);
+  for (const auto& stats : inbox.stats) handle(stats);
+  for (const auto& received : inbox.keyframes) {
+    KeyframeAck ack;
+    try {
+      ack = handle(received, wall_time_ns());
+    } catch (const std::exception& e) {
+      // Storage failure (disk full, I/O error): not acknowledged, so the agent resends.
+      logger_->error("could not store keyframe {} from {}: {}", received.keyframe.sequence_number,
+                     received.keyframe.robot_id, e.what());
+      continue;
+    }
+    const PublishResult sent = link_.acknowledge(ack);
+    if (!sent.ok) logger_->warn("acknowledgement not sent ({}); the agent will resend", sent.error);
+  }
+  return inbox.keyframes.size();
+}
+
+}  // namespace keyfleet::station

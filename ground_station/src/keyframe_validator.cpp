@@ -1,0 +1,44 @@
+#include "keyfleet/station/keyframe_validator.hpp"
+
+namespace keyfleet::station {
+namespace {
+
+std::string size_text(std::uint32_t w, std::uint32_t h) {
+  return std::to_string(w) + "x" + std::to_string(h);
+}
+
+}  // namespace
+
+std::optional<std::string> find_keyframe_problem(const Keyframe& k, const StationLimits& limits,
+                                                 const ImageCodec& codec) {
+  if (!is_valid_robot_id(k.robot_id))
+    return "robot id '" + k.robot_id.substr(0, 64) + "' does not match [A-Za-z0-9_-]{1,32}";
+  if (k.encoding != codec.encoding())
+    return "encoding '" + k.encoding.substr(0, 32) + "' is not " + codec.encoding();
+  if (k.image.empty()) return std::string("empty image");
+  if (k.image.size() > limits.max_image_bytes)
+    return "image of " + std::to_string(k.image.size()) + " bytes exceeds max_image_bytes " +
+           std::to_string(limits.max_image_bytes);
+  if (k.width == 0 || k.height == 0 || k.width > limits.max_width || k.height > limits.max_height)
+    return "claimed size " + size_text(k.width, k.height) + " outside 1x1.." +
+           size_text(limits.max_width, limits.max_height);
+  const auto header = jpeg_dimensions(k.image);
+  if (!header) return std::string("corrupt JPEG: no start-of-frame header");
+  if (header->width != k.width || header->height != k.height)
+    return "JPEG header says " + size_text(header->width, header->height) + ", sample claims " +
+           size_text(k.width, k.height);
+  const auto n = k.image.size();
+  if (n < 2 || k.image[n - 2] != 0xFF || k.image[n - 1] != 0xD9)
+    return std::string("truncated JPEG: no end-of-image marker");
+  const DecodeResult decoded = codec.decode(k.image);
+  if (!decoded.ok()) return decoded.error;
+  if (static_cast<std::uint32_t>(decoded.image.cols) != k.width ||
+      static_cast<std::uint32_t>(decoded.image.rows) != k.height)
+    return "decoded size " +
+           size_text(static_cast<std::uint32_t>(decoded.image.cols),
+                     static_cast<std::uint32_t>(decoded.image.rows)) +
+           " differs from the claimed " + size_text(k.width, k.height);
+  return std::nullopt;
+}
+
+}  // namespace keyfleet::station

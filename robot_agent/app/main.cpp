@@ -1,0 +1,91 @@
+// robot_agent: composition root of one robot's keyframe pipeline.
+#include <CLI/CLI.hpp>
+
+#include <filesystem>
+#include <iostream>
+
+#include "keyfleet/agent/agent_runner.hpp"
+#include "keyfleet/common/config_error.hpp"
+#include "keyfleet/common/dds_transport.hpp"
+
+namespace {
+
+using namespace keyfleet;
+
+struct Options {
+  std::string config_path;
+  std::string robot_id;
+  std::string run_dir = ".";
+  std::string log_file;
+  std::optional<int> domain;
+  std::string partition;
+};
+
+int run(const Options& options) {
+  AgentConfig config = load_agent_config(options.config_path);
+  apply_dds_environment(config.dds);
+  if (options.domain) config.dds.domain_id = *options.domain;
+  if (!options.partition.empty()) config.dds.partition = options.partition;
+  if (!options.robot_id.empty()) {
+    if (!is_valid_robot_id(options.robot_id))
+      throw ConfigError("--robot-id: '" + options.robot_id + "' must match [A-Za-z0-9_-]{1,32}");
+    config.robot_id = options.robot_id;
+  }
+  std::filesystem::create_directories(options.run_dir);
+
+  Logger logger = make_logger("agent " + config.robot_id, config.log_level, options.log_file);
+  route_fastdds_log(logger);
+  logger->info("effective configuration:\n{}", to_yaml(config));
+
+  ShutdownSignal shutdown;
+  auto source = agent::make_frame_source(config.source, logger);
+  const std::filesystem::path outbox_path =
+      std::filesystem::path(options.run_dir) / config.outbox.path;
+  agent::Outbox outbox(outbox_path.string(), config.robot_id, config.outbox);
+  if (outbox.pending() > 0)
+    logger->info("outbox {} holds {} unacknowledged keyframe(s) from an earlier run",
+                 outbox.path(), outbox.pending());
+  auto link = make_dds_agent_link(config.dds, logger);
+  agent::KeyframeAgent pipeline(config, agent::make_selector(config.selector),
+                                std::make_unique<JpegCodec>(config.codec.jpeg_quality), outbox,
+                                *link, logger);
+  agent::AgentRunner runner(config, *source, pipeline, *link, logger);
+
+  switch (runner.run(shutdown.stop)) {
+    case agent::AgentOutcome::kDelivered: return 0;
+    case agent::AgentOutcome::kStopped:
+      logger->info("stopped by signal {}; {} keyframe(s) kept in {}", shutdown.received(),
+                   outbox.pending(), outbox.path());
+      return 0;
+    case agent::AgentOutcome::kUndelivered:
+      logger->error("{} keyframe(s) not acknowledged within drain_timeout_s={}; kept in {}",
+                    outbox.pending(), config.drain_timeout_s, outbox.path());
+      return 3;
+  }
+  return 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  keyfleet::block_termination_signals();
+  Options options;
+  CLI::App app{"keyfleet robot agent: selects keyframes from a camera stream and publishes them"};
+  app.add_option("-c,--config", options.config_path, "agent YAML config")
+      ->required()
+      ->check(CLI::ExistingFile);
+  app.add_option("--robot-id", options.robot_id, "overrides robot_id");
+  app.add_option("--run-dir", options.run_dir, "folder for the outbox and logs");
+  app.add_option("--log-file", options.log_file, "also log to this file");
+  app.add_option("--domain", options.domain, "DDS domain id (overrides config and KEYFLEET_DOMAIN)")
+      ->check(CLI::Range(0, 232));
+  app.add_option("--partition", options.partition,
+                 "DDS partition (overrides config and KEYFLEET_PARTITION)");
+  CLI11_PARSE(app, argc, argv);
+  try {
+    return run(options);
+  } catch (const std::exception& e) {
+    std::cerr << "robot_agent: error: " << e.what() << "\n";
+    return 1;
+  }
+}

@@ -1,0 +1,51 @@
+#pragma once
+#include <chrono>
+#include <memory>
+
+#include "keyfleet/agent/keyframe_selector.hpp"
+#include "keyfleet/agent/outbox.hpp"
+#include "keyfleet/common/bandwidth_ledger.hpp"
+#include "keyfleet/common/image_codec.hpp"
+#include "keyfleet/common/logging.hpp"
+#include "keyfleet/common/stage_clock.hpp"
+#include "keyfleet/common/transport.hpp"
+
+namespace keyfleet::agent {
+
+// The agent's pipeline as synchronous steps, with no threads and no clocks of its own:
+// process() takes one frame through selection, encoding, the outbox and the link;
+// service() handles acknowledgements, retransmissions and the outbox bounds.
+class KeyframeAgent {
+ public:
+  KeyframeAgent(const AgentConfig& config, std::unique_ptr<KeyframeSelector> selector,
+                std::unique_ptr<ImageCodec> codec, Outbox& outbox, AgentLink& link,
+                Logger logger);
+
+  void process(const Frame& frame, std::int64_t now_ns);
+  void finish_stream(std::int64_t now_ns);
+  // Takes acknowledgements (waiting up to ack_wait for the first), resends what is due
+  // while a station is matched, evicts what the outbox bounds give up on.
+  void service(std::int64_t now_ns, std::chrono::milliseconds ack_wait);
+  void publish_stats(bool finished, std::int64_t now_ns);
+
+  AgentStats stats(bool finished, std::int64_t now_ns) const;
+  std::uint64_t pending() const { return outbox_.pending(); }
+  std::uint64_t rejected() const { return rejected_; }
+  StageClock& stage_clock() { return clock_; }
+
+ private:
+  void publish_selection(const Selection& selection, std::int64_t now_ns);
+  Keyframe make_keyframe(const Frame& frame, std::vector<std::uint8_t> image) const;
+
+  AgentConfig config_;
+  std::unique_ptr<KeyframeSelector> selector_;
+  std::unique_ptr<ImageCodec> codec_;
+  Outbox& outbox_;
+  AgentLink& link_;
+  Logger logger_;
+  BandwidthLedger ledger_;
+  StageClock clock_;
+  std::uint64_t rejected_ = 0;
+};
+
+}  // namespace keyfleet::agent

@@ -1,0 +1,40 @@
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "keyfleet/common/config.hpp"
+#include "keyfleet/common/sqlite.hpp"
+#include "keyfleet/common/types.hpp"
+
+namespace keyfleet::agent {
+
+// The agent's durable store of keyframes not yet acknowledged by a station, in SQLite.
+// A keyframe enters before its first transmission and leaves when acknowledged or when
+// the configured bounds (count, age) evict it. Sequence numbers continue across restarts.
+class Outbox {
+ public:
+  // Throws StartupError when the file belongs to another robot or cannot be opened.
+  Outbox(const std::string& path, const std::string& robot_id, const OutboxConfig& bounds);
+
+  std::uint64_t next_sequence() const { return next_sequence_; }
+  // Stores the keyframe; its sequence_number must be next_sequence().
+  void add(const Keyframe& keyframe, std::int64_t now_ns);
+  void mark_sent(std::uint64_t sequence, std::int64_t now_ns);
+  // Removes the keyframe; false when it was not pending (a repeated acknowledgement).
+  bool acknowledge(std::uint64_t sequence);
+  // Oldest first: keyframes last sent at least resend_after_s ago, at most `max`.
+  std::vector<Keyframe> due_for_resend(std::int64_t now_ns, std::size_t max);
+  // Applies the bounds; returns the sequence numbers given up on.
+  std::vector<std::uint64_t> evict(std::int64_t now_ns);
+  std::uint64_t pending() const;
+  const std::string& path() const { return db_.path(); }
+
+ private:
+  mutable SqliteDb db_;
+  OutboxConfig bounds_;
+  std::string robot_id_;
+  std::uint64_t next_sequence_ = 0;
+};
+
+}  // namespace keyfleet::agent

@@ -1,0 +1,128 @@
+#include "keyfleet/agent/keyframe_agent.hpp"
+
+namespace keyfleet::agent {
+
+KeyframeAgent::KeyframeAgent(const AgentConfig& config, std::unique_ptr<KeyframeSelector> selector,
+                             std::unique_ptr<ImageCodec> codec, Outbox& outbox, AgentLink& link,
+                             Logger logger)
+    : config_(config),
+      selector_(std::move(selector)),
+      codec_(std::move(codec)),
+      outbox_(outbox),
+      link_(link),
+      logger_(std::move(logger)),
+      ledger_(config.ledger.baseline_sample_every) {}
+
+Keyframe KeyframeAgent::make_keyframe(const Frame& frame, std::vector<std::uint8_t> image) const {
+  Keyframe keyframe;
+  keyframe.robot_id = config_.robot_id;
+  keyframe.frame_index = frame.index;
+  keyframe.capture_time_ns = frame.capture_time_ns;
+  keyframe.encoding = codec_->encoding();
+  keyframe.width = static_cast<std::uint32_t>(frame.image.cols);
+  keyframe.height = static_cast<std::uint32_t>(frame.image.rows);
+  keyframe.image = std::move(image);
+  return keyframe;
+}
+
+void KeyframeAgent::process(const Frame& frame, std::int64_t now_ns) {
+  SelectorStep step;
+  {
+    auto scope = clock_.measure("select");
+    step = selector_->push(frame);
+  }
+  // Baselines: what this frame would cost as a sample, measured on the frames sampled
+  // for the stream-all baseline and on every V-SLAM keyframe.
+  std::optional<std::uint64_t> frame_bytes;
+  if (ledger_.should_sample_frame(frame.index) || step.vslam_keyframe) {
+    auto scope = clock_.measure("baseline");
+    frame_bytes = link_.serialized_size(make_keyframe(frame, codec_->encode(frame.image)));
+  }
+  ledger_.record_frame(ledger_.should_sample_frame(frame.index) ? frame_bytes : std::nullopt);
+  if (step.vslam_keyframe) ledger_.record_vslam_keyframe(frame_bytes);
+
+  for (const auto& selection : step.selected) publish_selection(selection, now_ns);
+}
+
+void KeyframeAgent::finish_stream(std::int64_t now_ns) {
+  for (const auto& selection : selector_->finish()) publish_selection(selection, now_ns);
+}
+
+void KeyframeAgent::publish_selection(const Selection& selection, std::int64_t now_ns) {
+  Keyframe keyframe;
+  {
+    auto scope = clock_.measure("encode");
+    keyframe = make_keyframe(selection.frame, codec_->encode(selection.frame.image));
+  }
+  keyframe.sequence_number = outbox_.next_sequence();
+  keyframe.vslam_keyframe_index = selection.vslam_keyframe_index;
+  keyframe.window_first_frame = selection.window_first_frame;
+  keyframe.window_last_frame = selection.window_last_frame;
+  keyframe.quality_score = selection.quality_score;
+  keyframe.sharpness_score = selection.sharpness_score;
+  keyframe.semantic_score = selection.semantic_score;
+
+  auto scope = clock_.measure("publish");
+  outbox_.add(keyframe, now_ns);  // durable before it is on the wire
+  const PublishResult result = link_.publish(keyframe);
+  if (!result.ok) {
+    logger_->warn("keyframe {} not sent now ({}); it stays in the outbox for a resend",
+                  keyframe.sequence_number, result.error);
+    ledger_.record_sent(0);
+    return;
+  }
+  ledger_.record_sent(result.serialized_bytes);
+  outbox_.mark_sent(keyframe.sequence_number, now_ns);
+  logger_->debug("keyframe {} (frame {}) sent, {} bytes", keyframe.sequence_number,
+                 keyframe.frame_index, result.serialized_bytes);
+}
+
+void KeyframeAgent::service(std::int64_t now_ns, std::chrono::milliseconds ack_wait) {
+  auto scope = clock_.measure("service");
+  for (const auto& ack : link_.take_acks(config_.robot_id, ack_wait)) {
+    const bool was_pending = outbox_.acknowledge(ack.sequence_number);
+    if (ack.status == AckStatus::kRejected && was_pending) {
+      ++rejected_;
+      logger_->error("station rejected keyframe {}: {}", ack.sequence_number, ack.reason);
+    }
+  }
+  if (link_.matched_stations() > 0) {
+    const auto due = outbox_.due_for_resend(now_ns, static_cast<std::size_t>(config_.outbox.resend_batch));
+    for (const auto& keyframe : due) {
+      const PublishResult result = link_.publish(keyframe);
+      if (!result.ok) break;  // the writer is busy: try again on the next pass
+      ledger_.record_resent(result.serialized_bytes);
+      outbox_.mark_sent(keyframe.sequence_number, now_ns);
+    }
+    if (!due.empty())
+      logger_->info("resent {} unacknowledged keyframe(s) from {}", due.size(),
+                    due.front().sequence_number);
+  }
+  const auto evicted = outbox_.evict(now_ns);
+  if (!evicted.empty()) {
+    ledger_.record_dropped(evicted.size());
+    logger_->error(
+        "outbox bounds reached: gave up on {} unacknowledged keyframe(s) {}..{} "
+        "(max_pending {}, max_age_s {})",
+        evicted.size(), evicted.front(), evicted.back(), config_.outbox.max_pending,
+        config_.outbox.max_age_s);
+  }
+}
+
+AgentStats KeyframeAgent::stats(bool finished, std::int64_t now_ns) const {
+  AgentStats stats;
+  stats.robot_id = config_.robot_id;
+  stats.report_time_ns = now_ns;
+  stats.finished = finished;
+  ledger_.fill(stats);
+  stats.keyframes_pending = outbox_.pending();
+  stats.stages = clock_.snapshot();
+  return stats;
+}
+
+void KeyframeAgent::publish_stats(bool finished, std::int64_t now_ns) {
+  const PublishResult result = link_.publish(stats(finished, now_ns));
+  if (!result.ok) logger_->warn("agent stats not sent: {}", result.error);
+}
+
+}  // namespace keyfleet::agent
