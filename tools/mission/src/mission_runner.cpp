@@ -1,0 +1,211 @@
+#include "keyfleet/mission/mission_runner.hpp"
+
+#include <unistd.h>
+
+#include <csignal>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <random>
+#include <sstream>
+
+#include "keyfleet/common/error.hpp"
+#include "keyfleet/common/sqlite.hpp"
+#include "keyfleet/mission/child_process.hpp"
+
+namespace keyfleet::mission {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+using std::chrono::milliseconds;
+
+std::string timestamp() {
+  const std::time_t now = std::time(nullptr);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y%m%d-%H%M%S", std::localtime(&now));
+  return text;
+}
+
+void write_text(const fs::path& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+  if (!out) throw StartupError("cannot write " + path.string());
+}
+
+// Stored keyframes per robot, read from the station's database while it runs.
+std::map<std::string, std::int64_t> stored_per_robot(const fs::path& database) {
+  std::map<std::string, std::int64_t> counts;
+  if (!fs::exists(database)) return counts;
+  try {
+    SqliteDb db(database.string(), SqliteDb::Mode::kReadOnly);
+    auto query = db.prepare("SELECT robot_id, COUNT(*) FROM keyframes GROUP BY robot_id");
+    while (query.step()) counts[query.text(0)] = query.int64(1);
+  } catch (const SqliteError&) {
+    // The station may still be creating its schema: no progress figure this time.
+  }
+  return counts;
+}
+
+std::string failure_line(const ChildProcess& child, const ExitStatus& status) {
+  return child.name() + " (pid " + std::to_string(child.pid()) + ") " + status.describe() +
+         "; last lines of " + child.log_path() + ":\n" + tail_of_file(child.log_path(), 6);
+}
+
+}  // namespace
+
+std::string find_sibling_executable(const std::string& name) {
+  std::error_code error;
+  const fs::path self = fs::read_symlink("/proc/self/exe", error);
+  if (!error) {
+    const fs::path sibling = self.parent_path() / name;
+    if (fs::exists(sibling)) return sibling.string();
+  }
+  if (const char* path = std::getenv("PATH")) {
+    std::stringstream dirs(path);
+    std::string dir;
+    while (std::getline(dirs, dir, ':'))
+      if (!dir.empty() && ::access((fs::path(dir) / name).c_str(), X_OK) == 0)
+        return (fs::path(dir) / name).string();
+  }
+  throw StartupError("cannot find the '" + name + "' executable next to " + self.string() +
+                     " or on PATH (build the project first)");
+}
+
+MissionRunner::MissionRunner(MissionConfig config, MissionBinaries binaries, Logger logger,
+                             std::ostream& progress)
+    : config_(std::move(config)),
+      binaries_(std::move(binaries)),
+      logger_(std::move(logger)),
+      progress_(progress) {}
+
+MissionResult MissionRunner::run(const StopToken& stop) {
+  MissionResult result;
+  const fs::path run_dir =
+      fs::absolute(config_.run_root) / (config_.name + "-" + timestamp() + "-" +
+                                        std::to_string(::getpid()));
+  fs::create_directories(run_dir / "config");
+  result.run_dir = run_dir.string();
+
+  std::random_device entropy;
+  const int domain = config_.domain_id.value_or(static_cast<int>(10 + entropy() % 200));
+  const std::string partition =
+      "keyfleet-" + config_.name + "-" + std::to_string(::getpid()) + "-" +
+      std::to_string(entropy() % 1000000);
+  config_.station.dds.domain_id = domain;
+  config_.station.dds.partition = partition;
+  write_text(run_dir / "config" / "station.yaml", to_yaml(config_.station));
+  write_text(run_dir / "config" / "mission.yaml", to_yaml(config_));
+  progress_ << "mission '" << config_.name << "': " << config_.drones
+            << " drone(s) + station, DDS domain " << domain << ", partition " << partition
+            << "\nrun folder: " << run_dir.string() << "\n"
+            << std::flush;
+
+  const fs::path station_dir = run_dir / "station";
+  fs::create_directories(station_dir);
+  ChildProcess station("ground_station",
+                       {binaries_.ground_station, "--config",
+                        (run_dir / "config" / "station.yaml").string(), "--run-dir",
+                        station_dir.string()},
+                       (station_dir / "station.log").string());
+
+  std::vector<std::unique_ptr<ChildProcess>> agents;
+  for (int i = 0; i < config_.drones; ++i) {
+    AgentConfig agent = config_.agent;
+    agent.robot_id = config_.robot_id_prefix + std::to_string(i);
+    agent.source.seed = config_.agent.source.seed + static_cast<std::uint64_t>(i);
+    agent.dds.domain_id = domain;
+    agent.dds.partition = partition;
+    const fs::path agent_dir = run_dir / agent.robot_id;
+    fs::create_directories(agent_dir);
+    const fs::path agent_config = run_dir / "config" / (agent.robot_id + ".yaml");
+    write_text(agent_config, to_yaml(agent));
+    agents.push_back(std::make_unique<ChildProcess>(
+        agent.robot_id,
+        std::vector<std::string>{binaries_.robot_agent, "--config", agent_config.string(),
+                                 "--run-dir", agent_dir.string()},
+        (agent_dir / "agent.log").string()));
+  }
+
+  // Wait for the agents, reporting progress, failing fast if the station dies.
+  const auto start = Clock::now();
+  const auto deadline = start + std::chrono::duration_cast<Clock::duration>(
+                                    std::chrono::duration<double>(config_.agent_timeout_s));
+  auto next_progress = start;
+  std::size_t running = agents.size();
+  bool station_died = false;
+  std::vector<bool> finished(agents.size(), false);
+  while (running > 0 && !stop.requested()) {
+    running = 0;
+    for (std::size_t i = 0; i < agents.size(); ++i) {
+      const auto status = agents[i]->poll();
+      if (!status) {
+        ++running;
+      } else if (!finished[i]) {
+        finished[i] = true;
+        if (!status->ok()) result.failures.push_back(failure_line(*agents[i], *status));
+      }
+    }
+    if (auto status = station.poll(); status && !station_died) {
+      station_died = true;
+      result.failures.push_back(failure_line(station, *status));
+      break;
+    }
+    if (Clock::now() >= deadline) {
+      for (auto& agent : agents) {
+        if (!agent->poll()) {
+          agent->signal(SIGTERM);
+          result.failures.push_back(agent->name() + " still running after agent_timeout_s=" +
+                                    std::to_string(config_.agent_timeout_s) + "; stopped");
+        }
+      }
+      break;
+    }
+    if (Clock::now() >= next_progress) {
+      const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+      progress_ << "[" << static_cast<int>(elapsed) << " s] stored:";
+      for (const auto& [robot, count] : stored_per_robot(station_dir / "station.sqlite"))
+        progress_ << " " << robot << "=" << count;
+      progress_ << " | agents running " << running << "/" << agents.size() << "\n" << std::flush;
+      next_progress += std::chrono::seconds(2);
+    }
+    stop.wait_for(milliseconds(100));
+  }
+  if (stop.requested()) {
+    progress_ << "interrupted: stopping agents and station\n";
+    result.failures.push_back("mission interrupted by a signal");
+  }
+  for (auto& agent : agents) {
+    if (!agent->poll()) agent->signal(SIGTERM);
+    const auto status = agent->wait_for(milliseconds(10000));
+    if (!status) {
+      agent->signal(SIGKILL);
+      result.failures.push_back(agent->name() + " ignored SIGTERM for 10 s; killed");
+    }
+  }
+
+  // Let the station drain, then stop it and take its report.
+  if (!station_died) {
+    station.signal(SIGTERM);
+    const auto drained = std::chrono::milliseconds(
+        static_cast<long>(config_.station_drain_timeout_s * 1000));
+    auto status = station.wait_for(drained);
+    if (!status) {
+      station.signal(SIGKILL);
+      station.wait_for(milliseconds(5000));
+      result.failures.push_back("ground_station did not stop within station_drain_timeout_s; killed");
+    } else if (!status->ok()) {
+      result.failures.push_back(failure_line(station, *status));
+    }
+  }
+  std::ifstream report(station_dir / "report.txt");
+  std::stringstream table;
+  table << report.rdbuf();
+  result.report_table = table.str();
+  result.ok = result.failures.empty();
+  return result;
+}
+
+}  // namespace keyfleet::mission
