@@ -22,7 +22,7 @@ cv::Scalar random_colour(cv::RNG& rng, int low, int high) {
 cv::Mat draw_street(int frame_width, int frame_height, cv::RNG& rng) {
   const int width = frame_width * 8;
   const int height = frame_height * 3 / 2;
-  cv::Mat street(height, width, CV_8UC3);
+  cv::Mat street(height, width, CV_8UC3, cv::Scalar(120, 130, 140));
   for (int y = 0; y < height / 4; ++y)
     street.row(y).setTo(cv::Scalar(235 - y / 3, 200 - y / 4, 150));
   street.rowRange(height * 7 / 8, height).setTo(cv::Scalar(90, 90, 95));

@@ -1,0 +1,147 @@
+#include "fleet_fixture.hpp"
+
+#include <unistd.h>
+
+#include <fstream>
+#include <random>
+
+#include "keyfleet/common/sqlite.hpp"
+
+namespace keyfleet::testing {
+namespace fs = std::filesystem;
+
+bool wait_until(const std::function<bool()>& condition, std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (condition()) return true;
+    ::usleep(20000);  // polling interval of the condition, not a wait for an outcome
+  }
+  return condition();
+}
+
+void FleetFixture::SetUp() {
+  std::random_device entropy;
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  run_dir_ = fs::temp_directory_path() /
+             ("keyfleet-it-" + std::string(info->name()) + "-" + std::to_string(::getpid()) +
+              "-" + std::to_string(entropy() % 100000));
+  fs::create_directories(run_dir_);
+  domain_id_ = static_cast<int>(100 + (static_cast<unsigned>(::getpid()) + entropy()) % 130);
+  partition_ = "it-" + std::string(info->name()) + "-" + std::to_string(entropy());
+}
+
+void FleetFixture::TearDown() {
+  if (!HasFailure()) fs::remove_all(run_dir_);
+  else std::cerr << "run folder kept for inspection: " << run_dir_ << "\n";
+}
+
+DdsSettings FleetFixture::dds() const {
+  DdsSettings s;
+  s.domain_id = domain_id_;
+  s.partition = partition_;
+  s.lease_duration_s = 2.0;
+  s.announcement_period_s = 0.5;
+  return s;
+}
+
+AgentConfig FleetFixture::agent_config(const std::string& robot_id) const {
+  AgentConfig c;
+  c.robot_id = robot_id;
+  c.dds = dds();
+  c.source.kind = SourceConfig::Kind::kGenerated;
+  c.source.realtime = false;
+  c.source.max_frames = 60;
+  c.source.width = 320;
+  c.source.height = 240;
+  c.selector.stride = 5;
+  c.stats_period_s = 0.5;
+  c.wait_for_station_s = 20;
+  c.drain_timeout_s = 60;
+  c.outbox.resend_after_s = 1.0;
+  return c;
+}
+
+StationConfig FleetFixture::station_config() const {
+  StationConfig c;
+  c.dds = dds();
+  c.report_period_s = 1.0;
+  return c;
+}
+
+namespace {
+void write(const fs::path& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+}
+}  // namespace
+
+std::unique_ptr<mission::ChildProcess> FleetFixture::start_station(const StationConfig& config) {
+  fs::create_directories(station_dir());
+  const fs::path yaml = run_dir_ / "station.yaml";
+  write(yaml, to_yaml(config));
+  return std::make_unique<mission::ChildProcess>(
+      "ground_station",
+      std::vector<std::string>{KEYFLEET_STATION_BIN, "--config", yaml.string(), "--run-dir",
+                               station_dir().string()},
+      (station_dir() / "station.log").string());
+}
+
+std::unique_ptr<mission::ChildProcess> FleetFixture::start_agent(const AgentConfig& config) {
+  const fs::path dir = agent_dir(config.robot_id);
+  fs::create_directories(dir);
+  const fs::path yaml = run_dir_ / (config.robot_id + ".yaml");
+  write(yaml, to_yaml(config));
+  return std::make_unique<mission::ChildProcess>(
+      config.robot_id,
+      std::vector<std::string>{KEYFLEET_AGENT_BIN, "--config", yaml.string(), "--run-dir",
+                               dir.string()},
+      (dir / "agent.log").string());
+}
+
+std::map<std::string, std::int64_t> FleetFixture::stored_counts() const {
+  std::map<std::string, std::int64_t> counts;
+  const fs::path db_path = station_dir() / "station.sqlite";
+  if (!fs::exists(db_path)) return counts;
+  try {
+    SqliteDb db(db_path.string(), SqliteDb::Mode::kReadOnly);
+    auto q = db.prepare("SELECT robot_id, COUNT(*) FROM keyframes GROUP BY robot_id");
+    while (q.step()) counts[q.text(0)] = q.int64(1);
+  } catch (const SqliteError&) {
+  }
+  return counts;
+}
+
+std::vector<StoredKeyframe> FleetFixture::stored_keyframes() const {
+  SqliteDb db((station_dir() / "station.sqlite").string(), SqliteDb::Mode::kReadOnly);
+  auto q = db.prepare(
+      "SELECT robot_id, sequence_number, frame_index, image FROM keyframes "
+      "ORDER BY robot_id, sequence_number");
+  std::vector<StoredKeyframe> out;
+  while (q.step())
+    out.push_back({q.text(0), static_cast<std::uint64_t>(q.int64(1)),
+                   static_cast<std::uint64_t>(q.int64(2)), q.blob(3)});
+  return out;
+}
+
+std::int64_t FleetFixture::outbox_pending(const std::string& robot_id) const {
+  const fs::path path = agent_dir(robot_id) / "outbox.sqlite";
+  if (!fs::exists(path)) return 0;
+  try {
+    SqliteDb db(path.string(), SqliteDb::Mode::kReadOnly);
+    auto q = db.prepare("SELECT COUNT(*) FROM pending");
+    q.step();
+    return q.int64(0);
+  } catch (const SqliteError&) {
+    return 0;
+  }
+}
+
+std::vector<std::string> FleetFixture::rejection_reasons() const {
+  std::vector<std::string> out;
+  SqliteDb db((station_dir() / "station.sqlite").string(), SqliteDb::Mode::kReadOnly);
+  auto q = db.prepare("SELECT reason FROM rejected ORDER BY received_ns");
+  while (q.step()) out.push_back(q.text(0));
+  return out;
+}
+
+}  // namespace keyfleet::testing

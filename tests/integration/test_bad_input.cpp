@@ -1,0 +1,174 @@
+// Bad input gets a clear error, and the station keeps serving everyone else.
+#include <csignal>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "keyfleet/common/dds_transport.hpp"
+#include "keyfleet/common/image_codec.hpp"
+#include "support/fleet_fixture.hpp"
+
+namespace keyfleet::testing {
+namespace {
+
+using std::chrono::milliseconds;
+using std::chrono::seconds;
+
+std::string read_file(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+class BadInput : public FleetFixture {
+ protected:
+  // Runs robot_agent with `args`, returns (exit status, everything it printed).
+  std::pair<mission::ExitStatus, std::string> run_agent(std::vector<std::string> args) {
+    args.insert(args.begin(), KEYFLEET_AGENT_BIN);
+    const auto log = run_dir_ / ("agent-" + std::to_string(++runs_) + ".log");
+    mission::ChildProcess agent("robot_agent", args, log.string());
+    const auto status = agent.wait_for(seconds(30));
+    EXPECT_TRUE(status.has_value()) << "robot_agent did not stop on bad input";
+    return {status.value_or(mission::ExitStatus{}), read_file(log)};
+  }
+  std::filesystem::path write_config(const std::string& name, const std::string& text) {
+    const auto path = run_dir_ / name;
+    std::ofstream(path) << text;
+    return path;
+  }
+  int runs_ = 0;
+};
+
+TEST_F(BadInput, MissingConfigFileIsNamed) {
+  const auto [status, output] = run_agent({"--config", "/nonexistent/agent.yaml"});
+  EXPECT_FALSE(status.ok());
+  EXPECT_NE(output.find("/nonexistent/agent.yaml"), std::string::npos) << output;
+}
+
+TEST_F(BadInput, UnknownKeyIsNamedWithFileAndLine) {
+  const auto path = write_config("typo.yaml", "robot_id: drone_0\nsource:\n  fsp: 30\n");
+  const auto [status, output] = run_agent({"--config", path.string()});
+  EXPECT_EQ(status.code, 1);
+  EXPECT_NE(output.find("typo.yaml:3: source.fsp: unknown key"), std::string::npos) << output;
+  EXPECT_NE(output.find("fps"), std::string::npos) << "allowed keys are listed: " << output;
+}
+
+TEST_F(BadInput, BadValueSaysWhatIsAllowed) {
+  const auto path = write_config("bad.yaml", "codec:\n  jpeg_quality: 150\n");
+  const auto [status, output] = run_agent({"--config", path.string()});
+  EXPECT_EQ(status.code, 1);
+  EXPECT_NE(output.find("codec.jpeg_quality: must be between 1 and 100 (got '150')"),
+            std::string::npos)
+      << output;
+}
+
+TEST_F(BadInput, UnreadableImageFolderIsNamed) {
+  const auto path = write_config(
+      "folder.yaml", "source:\n  kind: folder\n  path: /nonexistent/frames\n");
+  const auto [status, output] =
+      run_agent({"--config", path.string(), "--run-dir", (run_dir_ / "a").string()});
+  EXPECT_EQ(status.code, 1);
+  EXPECT_NE(output.find("image folder '/nonexistent/frames' does not exist"), std::string::npos)
+      << output;
+}
+
+// Hostile samples published over real DDS next to a well-behaved agent process.
+TEST_F(BadInput, StationRejectsHostileSamplesAndKeepsServingOthers) {
+  auto station = start_station(station_config());
+  auto good_agent = start_agent(agent_config("good_drone"));
+
+  auto link = make_dds_agent_link(dds(), null_logger());
+  auto bad_id_link = make_dds_agent_link(dds(), null_logger());  // acks are taken per robot
+  ASSERT_TRUE(wait_until(
+      [&] { return link->matched_stations() > 0 && bad_id_link->matched_stations() > 0; },
+      seconds(20)));
+
+  JpegCodec codec(80);
+  const cv::Mat image(48, 64, CV_8UC3, cv::Scalar(40, 120, 200));
+  Keyframe valid;
+  valid.robot_id = "intruder";
+  valid.width = 64;
+  valid.height = 48;
+  valid.image = codec.encode(image);
+
+  std::vector<Keyframe> hostile;
+  Keyframe garbage = valid;  // not a JPEG at all
+  garbage.sequence_number = 0;
+  garbage.image.assign(5000, 0xAB);
+  hostile.push_back(garbage);
+  Keyframe truncated = valid;  // a real JPEG cut in half
+  truncated.sequence_number = 1;
+  truncated.image.resize(valid.image.size() / 2);
+  hostile.push_back(truncated);
+  Keyframe absurd = valid;  // claims a 100000 x 100000 frame
+  absurd.sequence_number = 2;
+  absurd.width = absurd.height = 100000;
+  hostile.push_back(absurd);
+  Keyframe lying_header = valid;  // header edited to 30000 x 30000, claim matches
+  lying_header.sequence_number = 3;
+  for (std::size_t i = 2; i + 8 < lying_header.image.size(); ++i) {
+    if (lying_header.image[i] == 0xFF && lying_header.image[i + 1] == 0xC0) {
+      lying_header.image[i + 5] = 0x75, lying_header.image[i + 6] = 0x30;
+      lying_header.image[i + 7] = 0x75, lying_header.image[i + 8] = 0x30;
+      break;
+    }
+  }
+  lying_header.width = lying_header.height = 30000;
+  hostile.push_back(lying_header);
+  Keyframe empty = valid;
+  empty.sequence_number = 4;
+  empty.image.clear();
+  hostile.push_back(empty);
+  Keyframe bad_id = valid;  // a robot id outside the allowed format
+  bad_id.robot_id = "../../etc/passwd";
+
+  // Like an agent's outbox, publish again whatever is not acknowledged yet: a sample
+  // written while the station's reader is still matching this writer may not reach it.
+  std::map<std::uint64_t, KeyframeAck> acks;
+  std::vector<KeyframeAck> bad_id_acks;
+  ASSERT_TRUE(wait_until(
+      [&] {
+        for (const auto& k : hostile)
+          if (!acks.count(k.sequence_number)) link->publish(k);
+        if (bad_id_acks.empty()) bad_id_link->publish(bad_id);
+        for (auto& ack : link->take_acks("intruder", milliseconds(300)))
+          acks[ack.sequence_number] = ack;
+        for (auto& ack : bad_id_link->take_acks(bad_id.robot_id, milliseconds(0)))
+          bad_id_acks.push_back(ack);
+        return acks.size() == hostile.size() && !bad_id_acks.empty();
+      },
+      seconds(20)));
+  for (const auto& [sequence, ack] : acks) {
+    EXPECT_EQ(ack.status, AckStatus::kRejected) << sequence;
+    EXPECT_FALSE(ack.reason.empty());
+  }
+  EXPECT_NE(bad_id_acks.front().reason.find("robot id"), std::string::npos);
+
+  // The well-behaved agent is served in full.
+  const auto status = good_agent->wait_for(seconds(60));
+  ASSERT_TRUE(status && status->ok()) << mission::tail_of_file(good_agent->log_path(), 20);
+  EXPECT_EQ(stored_counts()["good_drone"], 12);
+  EXPECT_EQ(stored_counts().count("intruder"), 0u);
+  EXPECT_FALSE(station->poll().has_value()) << "the station died";
+
+  const auto reasons = rejection_reasons();
+  ASSERT_EQ(reasons.size(), hostile.size() + 1);
+  auto mentions = [&](const std::string& what) {
+    for (const auto& r : reasons)
+      if (r.find(what) != std::string::npos) return true;
+    return false;
+  };
+  EXPECT_TRUE(mentions("not a JPEG") || mentions("no start-of-frame")) << reasons[0];
+  EXPECT_TRUE(mentions("truncated JPEG"));
+  EXPECT_TRUE(mentions("claimed size 100000x100000"));
+  EXPECT_TRUE(mentions("claimed size 30000x30000"));
+  EXPECT_TRUE(mentions("empty image"));
+
+  station->signal(SIGTERM);
+  const auto station_status = station->wait_for(seconds(30));
+  ASSERT_TRUE(station_status && station_status->ok());
+}
+
+}  // namespace
+}  // namespace keyfleet::testing

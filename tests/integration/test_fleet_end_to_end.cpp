@@ -1,0 +1,71 @@
+// A station and three agent processes over real Fast DDS: every keyframe stored once,
+// byte for byte what the agent encoded, and the bandwidth report written.
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "support/expected_keyframes.hpp"
+#include "support/fleet_fixture.hpp"
+
+namespace keyfleet::testing {
+namespace {
+
+using std::chrono::seconds;
+
+class FleetEndToEnd : public FleetFixture {};
+
+TEST_F(FleetEndToEnd, EveryKeyframeStoredExactlyOnceWithIdenticalBytes) {
+  auto station = start_station(station_config());
+  std::vector<AgentConfig> configs;
+  std::vector<std::unique_ptr<mission::ChildProcess>> agents;
+  for (int i = 0; i < 3; ++i) {
+    configs.push_back(agent_config("drone_" + std::to_string(i)));
+    configs.back().source.seed = 10 + static_cast<std::uint64_t>(i);
+    agents.push_back(start_agent(configs.back()));
+  }
+  for (auto& agent : agents) {
+    const auto status = agent->wait_for(seconds(90));
+    ASSERT_TRUE(status.has_value()) << agent->name() << " did not finish";
+    EXPECT_TRUE(status->ok()) << agent->name() << " " << status->describe() << "\n"
+                              << mission::tail_of_file(agent->log_path(), 20);
+  }
+  station->signal(SIGTERM);
+  const auto station_status = station->wait_for(seconds(30));
+  ASSERT_TRUE(station_status && station_status->ok())
+      << mission::tail_of_file(station->log_path(), 20);
+
+  const auto stored = stored_keyframes();
+  for (const auto& config : configs) {
+    const auto expected = expected_images(config);
+    ASSERT_EQ(expected.size(), 12u);  // 60 frames, stride 5
+    std::vector<const StoredKeyframe*> mine;
+    for (const auto& k : stored)
+      if (k.robot_id == config.robot_id) mine.push_back(&k);
+    ASSERT_EQ(mine.size(), expected.size()) << config.robot_id;
+    for (std::size_t seq = 0; seq < expected.size(); ++seq) {
+      EXPECT_EQ(mine[seq]->sequence_number, seq);
+      EXPECT_EQ(mine[seq]->frame_index, seq * 5);
+      EXPECT_TRUE(mine[seq]->image == expected[seq])
+          << config.robot_id << " keyframe " << seq << " differs from what the agent encoded";
+    }
+    EXPECT_EQ(outbox_pending(config.robot_id), 0);
+  }
+
+  std::ifstream report_file(station_dir() / "report.json");
+  ASSERT_TRUE(report_file.good());
+  const auto report = nlohmann::json::parse(report_file);
+  EXPECT_EQ(report["fleet"]["keyframes_stored"].get<int>(), 36);
+  ASSERT_EQ(report["robots"].size(), 3u);
+  for (const auto& robot : report["robots"]) {
+    EXPECT_TRUE(robot["agent_finished"].get<bool>()) << robot.dump();
+    EXPECT_EQ(robot["frames_seen"].get<int>(), 60);
+    EXPECT_GT(robot["saving_vs_stream_all"].get<double>(), 3.0) << robot.dump();
+  }
+  EXPECT_TRUE(std::filesystem::exists(station_dir() / "report.csv"));
+  EXPECT_TRUE(std::filesystem::exists(station_dir() / "mission_log.pb"));
+}
+
+}  // namespace
+}  // namespace keyfleet::testing
