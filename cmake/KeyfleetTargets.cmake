@@ -8,8 +8,14 @@ function(keyfleet_set_warnings target)
 endfunction()
 
 # keyfleet_add_gtest(NAME SOURCES ... LIBS ... [LABELS ...] [TIMEOUT s])
+# Tests labelled "integration" run real DDS processes: they hold a lock so that parallel
+# ctest never runs two of them at once (they also use distinct domains and partitions).
 function(keyfleet_add_gtest name)
   cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;LIBS;LABELS" ${ARGN})
+  set(lock "")
+  if("integration" IN_LIST ARG_LABELS)
+    set(lock RESOURCE_LOCK keyfleet_processes)
+  endif()
   add_executable(${name} ${ARG_SOURCES})
   keyfleet_set_warnings(${name})
   target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest_main)
@@ -19,6 +25,6 @@ function(keyfleet_add_gtest name)
   endif()
   gtest_discover_tests(${name}
     DISCOVERY_TIMEOUT 60
-    PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}"
+    PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}" ${lock}
     ENVIRONMENT "KEYFLEET_DATA=${KEYFLEET_DATA_DIR}")
 endfunction()

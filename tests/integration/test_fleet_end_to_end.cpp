@@ -3,6 +3,7 @@
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <set>
 
 #include <nlohmann/json.hpp>
 
@@ -65,6 +66,44 @@ TEST_F(FleetEndToEnd, EveryKeyframeStoredExactlyOnceWithIdenticalBytes) {
   }
   EXPECT_TRUE(std::filesystem::exists(station_dir() / "report.csv"));
   EXPECT_TRUE(std::filesystem::exists(station_dir() / "mission_log.pb"));
+}
+
+std::set<std::string> fastdds_shm_files() {
+  std::set<std::string> names;
+  for (const auto& entry : std::filesystem::directory_iterator("/dev/shm"))
+    if (entry.path().filename().string().rfind("fastrtps_", 0) == 0)
+      names.insert(entry.path().filename().string());
+  return names;
+}
+
+TEST_F(FleetEndToEnd, SignalsStopEveryProcessCleanlyWithoutStaleSharedMemory) {
+  const auto shm_before = fastdds_shm_files();
+  auto station = start_station(station_config());
+  AgentConfig config = agent_config("drone_0");
+  config.source.realtime = true;
+  config.source.max_frames = 100000;  // would fly for an hour
+  auto agent = start_agent(config);
+  ASSERT_TRUE(wait_until([&] { return stored_counts()["drone_0"] >= 3; }, seconds(30)));
+
+  agent->signal(SIGINT);
+  const auto agent_status = agent->wait_for(seconds(15));
+  ASSERT_TRUE(agent_status.has_value()) << "agent ignored SIGINT";
+  EXPECT_TRUE(agent_status->ok()) << agent_status->describe();
+  station->signal(SIGTERM);
+  const auto station_status = station->wait_for(seconds(15));
+  ASSERT_TRUE(station_status.has_value()) << "station ignored SIGTERM";
+  EXPECT_TRUE(station_status->ok()) << station_status->describe();
+
+  std::vector<std::string> leaked;
+  for (const auto& name : fastdds_shm_files())
+    if (!shm_before.count(name)) leaked.push_back(name);
+  EXPECT_TRUE(leaked.empty()) << "stale shared memory: " << leaked.front();
+  // What the agent had not delivered when stopped stays in its outbox, not lost.
+  std::ifstream report_file(station_dir() / "report.json");
+  const auto robot = nlohmann::json::parse(report_file)["robots"].at(0);
+  EXPECT_EQ(robot["keyframes_sent"].get<std::int64_t>(),
+            robot["keyframes_stored"].get<std::int64_t>() + outbox_pending("drone_0"))
+      << robot.dump();
 }
 
 }  // namespace

@@ -1,0 +1,68 @@
+// `keyfleet mission` end to end: it runs the fleet, prints the report, and names a
+// failing process with the reason.
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+
+#include "support/fleet_fixture.hpp"
+
+namespace keyfleet::testing {
+namespace {
+
+using std::chrono::seconds;
+
+class MissionCommand : public FleetFixture {
+ protected:
+  std::pair<mission::ExitStatus, std::string> run_mission(const std::string& yaml) {
+    const auto config = run_dir_ / "mission.yaml";
+    std::ofstream(config) << yaml;
+    const auto log = run_dir_ / "mission.out";
+    mission::ChildProcess cli("keyfleet", {KEYFLEET_CLI_BIN, "mission", config.string()},
+                              log.string());
+    const auto status = cli.wait_for(seconds(120));
+    EXPECT_TRUE(status.has_value()) << "keyfleet mission did not finish";
+    std::ifstream in(log);
+    std::stringstream text;
+    text << in.rdbuf();
+    return {status.value_or(mission::ExitStatus{}), text.str()};
+  }
+
+  std::string base_yaml(int drones) const {
+    std::ostringstream y;
+    y << "name: citest\ndrones: " << drones << "\nrun_root: " << (run_dir_ / "runs").string()
+      << "\nagent:\n  source: {kind: generated, realtime: false, max_frames: 40, width: 320, "
+         "height: 240}\n  selector: {stride: 10}\n  dds: {lease_duration_s: 2, "
+         "announcement_period_s: 0.5}\n";
+    return y.str();
+  }
+};
+
+TEST_F(MissionCommand, TwoDroneMissionPrintsReportAndSucceeds) {
+  const auto [status, output] = run_mission(base_yaml(2));
+  EXPECT_TRUE(status.ok()) << output;
+  EXPECT_NE(output.find("mission OK"), std::string::npos) << output;
+  // Each drone: 40 frames, stride 10 -> 4 keyframes stored.
+  EXPECT_TRUE(std::regex_search(output, std::regex(R"(drone_0\s+4\s+0\s)"))) << output;
+  EXPECT_TRUE(std::regex_search(output, std::regex(R"(drone_1\s+4\s+0\s)"))) << output;
+  EXPECT_TRUE(std::regex_search(output, std::regex(R"(FLEET\s+8\s+0\s)"))) << output;
+  std::smatch run_folder;
+  ASSERT_TRUE(std::regex_search(output, run_folder, std::regex(R"(run folder: (\S+))")));
+  EXPECT_TRUE(std::filesystem::exists(std::filesystem::path(run_folder[1].str()) / "station" /
+                                      "report.json"));
+}
+
+TEST_F(MissionCommand, FailingAgentIsNamedWithItsReason) {
+  std::string yaml = base_yaml(2);
+  yaml = std::regex_replace(yaml, std::regex("kind: generated"),
+                            "kind: folder, path: /nonexistent/frames");
+  const auto [status, output] = run_mission(yaml);
+  EXPECT_FALSE(status.ok());
+  EXPECT_NE(output.find("mission FAILED"), std::string::npos) << output;
+  EXPECT_NE(output.find("drone_0 (pid"), std::string::npos) << output;
+  EXPECT_NE(output.find("exited with code 1"), std::string::npos) << output;
+  EXPECT_NE(output.find("/nonexistent/frames"), std::string::npos) << output;
+}
+
+}  // namespace
+}  // namespace keyfleet::testing
