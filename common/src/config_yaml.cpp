@@ -80,8 +80,7 @@ Check<std::string> one_of(std::set<std::string> allowed) {
 }
 Check<std::string> robot_id_check() {
   return [](const std::string& v) {
-    return is_valid_robot_id(v) ? std::string()
-                                : std::string("must match [A-Za-z0-9_-]{1,32}");
+    return is_valid_robot_id(v) ? std::string() : std::string("must match [A-Za-z0-9_-]{1,32}");
   };
 }
 const std::set<std::string> kLogLevels = {"trace", "debug", "info", "warn", "error"};
@@ -90,7 +89,8 @@ class Reader {
  public:
   Reader(YAML::Node node, std::string origin, std::string path)
       : node_(std::move(node)), origin_(std::move(origin)), path_(std::move(path)) {
-    if (node_ && !node_.IsNull() && !node_.IsMap()) fail(node_, path_, "expected a mapping");
+    if (node_ && !node_.IsNull() && !node_.IsMap())
+      fail(node_, path_or_top(), "expected a mapping");
   }
 
   template <class T>
@@ -130,7 +130,8 @@ class Reader {
   void finish() const {
     if (!node_ || node_.IsNull()) return;
     for (const auto& entry : node_) {
-      const std::string key = entry.first.as<std::string>();
+      if (!entry.first.IsScalar()) fail(entry.first, path_or_top(), "keys must be plain names");
+      const std::string key = entry.first.Scalar();
       if (known_.count(key)) continue;
       std::string allowed;
       for (const auto& k : known_) allowed += allowed.empty() ? k : ", " + k;
@@ -150,6 +151,8 @@ class Reader {
   const std::string& path() const { return path_; }
 
  private:
+  std::string path_or_top() const { return path_.empty() ? "(top level)" : path_; }
+
   std::string join(const char* key) const { return path_.empty() ? key : path_ + "." + key; }
 
   static std::string scalar_text(const YAML::Node& n) {
@@ -177,8 +180,8 @@ class Reader {
       try {
         return child.as<T>();
       } catch (const YAML::Exception&) {
-        fail(child, where, std::string("expected ") + type_name<T>() + " (got " +
-                               scalar_text(child) + ")");
+        fail(child, where,
+             std::string("expected ") + type_name<T>() + " (got " + scalar_text(child) + ")");
       }
     }
   }
@@ -274,8 +277,8 @@ template <class V>
 void visit(V& v, OutboxConfig& c) {
   v.field("path", c.path);
   v.field("max_pending", c.max_pending, at_least<std::uint64_t>(1));
-  v.field("max_age_s", c.max_age_s, positive());
-  v.field("resend_after_s", c.resend_after_s, positive());
+  v.field("max_age_s", c.max_age_s, between(0.001, 1e8));
+  v.field("resend_after_s", c.resend_after_s, between(0.001, 1e6));
   v.field("resend_batch", c.resend_batch, between(1, 100000));
 }
 
@@ -333,8 +336,6 @@ void validate(const AgentConfig& c, const std::string& origin) {
   const bool needs_path = c.source.kind != SourceConfig::Kind::kGenerated;
   if (needs_path && c.source.path.empty())
     throw ConfigError(origin + ": source.path: required when source.kind is folder or video");
-  if (c.source.kind == SourceConfig::Kind::kGenerated && c.source.max_frames == 0)
-    throw ConfigError(origin + ": source.max_frames: required (> 0) for a generated source");
 }
 
 void validate(const MissionConfig& c, const std::string& origin) {
@@ -349,8 +350,8 @@ YAML::Node parse_yaml(const std::string& text, const std::string& origin) {
   try {
     return YAML::Load(text);
   } catch (const YAML::ParserException& e) {
-    throw ConfigError(origin + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML: " +
-                      e.msg);
+    throw ConfigError(origin + ":" + std::to_string(e.mark.line + 1) +
+                      ": not valid YAML: " + e.msg);
   }
 }
 

@@ -39,8 +39,8 @@ void apply_dds_environment(DdsSettings& settings) {
     char* end = nullptr;
     const long value = std::strtol(domain, &end, 10);
     if (*end != '\0' || value < 0 || value > 232)
-      throw StartupError(std::string("KEYFLEET_DOMAIN: must be an integer 0..232, got '") +
-                         domain + "'");
+      throw StartupError(std::string("KEYFLEET_DOMAIN: must be an integer 0..232, got '") + domain +
+                         "'");
     settings.domain_id = static_cast<int>(value);
   }
   if (const char* partition = std::getenv("KEYFLEET_PARTITION"); partition && *partition)

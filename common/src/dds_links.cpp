@@ -37,8 +37,8 @@ class DdsAgentLink final : public AgentLink {
         keyframe_type_(new wire::KeyframePubSubType()),
         stats_type_(new wire::AgentStatsPubSubType()),
         ack_type_(new wire::KeyframeAckPubSubType()) {
-    keyframe_writer_ = participant_.writer(participant_.topic(kKeyframeTopic, keyframe_type_),
-                                           Stream::kKeyframes);
+    keyframe_writer_ =
+        participant_.writer(participant_.topic(kKeyframeTopic, keyframe_type_), Stream::kKeyframes);
     stats_writer_ =
         participant_.writer(participant_.topic(kAgentStatsTopic, stats_type_), Stream::kStats);
     ack_reader_ =
@@ -115,8 +115,8 @@ class DdsStationLink final : public StationLink {
         keyframe_type_(new wire::KeyframePubSubType()),
         stats_type_(new wire::AgentStatsPubSubType()),
         ack_type_(new wire::KeyframeAckPubSubType()) {
-    keyframe_reader_ = participant_.reader(participant_.topic(kKeyframeTopic, keyframe_type_),
-                                           Stream::kKeyframes);
+    keyframe_reader_ =
+        participant_.reader(participant_.topic(kKeyframeTopic, keyframe_type_), Stream::kKeyframes);
     stats_reader_ =
         participant_.reader(participant_.topic(kAgentStatsTopic, stats_type_), Stream::kStats);
     ack_writer_ =

@@ -1,9 +1,9 @@
 #include "dds_participant.hpp"
 
-#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
 #include <fastrtps/utils/IPLocator.h>
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 
 #include "keyfleet/common/error.hpp"
 
@@ -76,10 +76,10 @@ Participant::Participant(const DdsSettings& settings, const std::string& name, L
     throw StartupError("cannot create DDS publisher/subscriber for partition '" +
                        settings.partition + "'");
   }
-  logger_->info("DDS participant '{}' on domain {} partition '{}' ({})", name, settings.domain_id,
-                settings.partition,
-                settings.transport == DdsSettings::Transport::kLocalhost ? "localhost only"
-                                                                         : "network");
+  logger_->info(
+      "DDS participant '{}' on domain {} partition '{}' ({})", name, settings.domain_id,
+      settings.partition,
+      settings.transport == DdsSettings::Transport::kLocalhost ? "localhost only" : "network");
 }
 
 Participant::~Participant() {
@@ -91,7 +91,8 @@ Participant::~Participant() {
 fdds::Topic* Participant::topic(const std::string& name, fdds::TypeSupport type) {
   if (type.register_type(participant_) != ReturnCode_t::RETCODE_OK)
     throw StartupError("cannot register DDS type " + type.get_type_name());
-  fdds::Topic* topic = participant_->create_topic(name, type.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
+  fdds::Topic* topic =
+      participant_->create_topic(name, type.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
   if (!topic) throw StartupError("cannot create DDS topic " + name);
   return topic;
 }
@@ -99,8 +100,7 @@ fdds::Topic* Participant::topic(const std::string& name, fdds::TypeSupport type)
 fdds::DataWriter* Participant::writer(fdds::Topic* topic, Stream stream) {
   fdds::DataWriterQos qos = publisher_->get_default_datawriter_qos();
   qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
-  qos.endpoint().history_memory_policy =
-      eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
+  qos.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
   qos.data_sharing().off();
   qos.reliable_writer_qos().times.heartbeatPeriod =
       Duration_t(static_cast<long double>(settings_.heartbeat_period_s));
@@ -127,8 +127,7 @@ fdds::DataWriter* Participant::writer(fdds::Topic* topic, Stream stream) {
 fdds::DataReader* Participant::reader(fdds::Topic* topic, Stream stream) {
   fdds::DataReaderQos qos = subscriber_->get_default_datareader_qos();
   qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
-  qos.endpoint().history_memory_policy =
-      eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
+  qos.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
   qos.data_sharing().off();
   switch (stream) {
     case Stream::kKeyframes:

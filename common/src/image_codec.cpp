@@ -54,8 +54,8 @@ std::optional<ImageSize> jpeg_dimensions(const std::vector<std::uint8_t>& bytes)
     }
     const std::size_t length = (std::size_t{bytes[pos + 2]} << 8) | bytes[pos + 3];
     if (length < 2 || pos + 2 + length > n) return std::nullopt;
-    const bool start_of_frame = marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 &&
-                                marker != 0xC8 && marker != 0xCC;
+    const bool start_of_frame =
+        marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC;
     if (start_of_frame) {
       if (length < 7) return std::nullopt;
       ImageSize size;

@@ -30,8 +30,7 @@ Logger make_logger(const std::string& name, const std::string& level, const std:
 }
 
 Logger null_logger() {
-  return std::make_shared<spdlog::logger>("null",
-                                          std::make_shared<spdlog::sinks::null_sink_mt>());
+  return std::make_shared<spdlog::logger>("null", std::make_shared<spdlog::sinks::null_sink_mt>());
 }
 
 }  // namespace keyfleet

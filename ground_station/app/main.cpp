@@ -59,9 +59,8 @@ int run(const Options& options) {
   while (station.step(std::chrono::milliseconds(0)) > 0) {
   }
   mission_log.event("station stopped", wall_time_ns());
-  const std::string table =
-      station::write_bandwidth_report(station::build_bandwidth_report(store.totals()),
-                                      options.run_dir);
+  const std::string table = station::write_bandwidth_report(
+      station::build_bandwidth_report(store.totals()), options.run_dir);
   std::cout << table << std::flush;
   logger->info("stopped by signal {}; report in {}", shutdown.received(),
                (fs::path(options.run_dir) / "report.json").string());

@@ -17,10 +17,14 @@ double ratio(std::uint64_t numerator, std::uint64_t denominator) {
 std::string human_bytes(std::uint64_t bytes) {
   char text[32];
   const double b = static_cast<double>(bytes);
-  if (b >= 1e9) std::snprintf(text, sizeof text, "%.2f GB", b / 1e9);
-  else if (b >= 1e6) std::snprintf(text, sizeof text, "%.2f MB", b / 1e6);
-  else if (b >= 1e3) std::snprintf(text, sizeof text, "%.1f kB", b / 1e3);
-  else std::snprintf(text, sizeof text, "%llu B", static_cast<unsigned long long>(bytes));
+  if (b >= 1e9)
+    std::snprintf(text, sizeof text, "%.2f GB", b / 1e9);
+  else if (b >= 1e6)
+    std::snprintf(text, sizeof text, "%.2f MB", b / 1e6);
+  else if (b >= 1e3)
+    std::snprintf(text, sizeof text, "%.1f kB", b / 1e3);
+  else
+    std::snprintf(text, sizeof text, "%llu B", static_cast<unsigned long long>(bytes));
   return text;
 }
 
@@ -33,6 +37,7 @@ void accumulate(BandwidthRow& sum, const BandwidthRow& r) {
   sum.keyframes_stored += r.keyframes_stored;
   sum.rejected += r.rejected;
   sum.bytes_received += r.bytes_received;
+  sum.bytes_received_with_baseline += r.bytes_received_with_baseline;
   sum.frames_seen += r.frames_seen;
   sum.vslam_keyframes += r.vslam_keyframes;
   sum.keyframes_sent += r.keyframes_sent;
@@ -50,8 +55,12 @@ void accumulate(BandwidthRow& sum, const BandwidthRow& r) {
 
 }  // namespace
 
-double BandwidthRow::saving_vs_stream_all() const { return ratio(stream_all_bytes, bytes_received); }
-double BandwidthRow::saving_vs_vslam() const { return ratio(vslam_keyframe_bytes, bytes_received); }
+double BandwidthRow::saving_vs_stream_all() const {
+  return ratio(stream_all_bytes, bytes_received_with_baseline);
+}
+double BandwidthRow::saving_vs_vslam() const {
+  return ratio(vslam_keyframe_bytes, bytes_received_with_baseline);
+}
 
 BandwidthReport build_bandwidth_report(const std::vector<RobotTotals>& totals) {
   BandwidthReport report;
@@ -68,6 +77,7 @@ BandwidthReport build_bandwidth_report(const std::vector<RobotTotals>& totals) {
     if (t.latest_stats) {
       const AgentStats& s = *t.latest_stats;
       row.has_agent_stats = true;
+      row.bytes_received_with_baseline = t.serialized_bytes;
       row.agent_finished = s.finished;
       row.frames_seen = s.frames_seen;
       row.vslam_keyframes = s.vslam_keyframes;
@@ -92,26 +102,26 @@ std::string format_table(const BandwidthReport& report) {
   std::ostringstream out;
   char line[400];
   std::snprintf(line, sizeof line, "%-10s %6s %5s %10s %12s %9s %6s %14s %8s %14s %8s %7s\n",
-                "robot", "stored", "rej", "received", "frames seen", "resent", "lost",
-                "stream-all", "saving", "every V-SLAM", "saving", "kf/min");
+                "robot", "stored", "rej", "received", "frames seen", "resent", "lost", "stream-all",
+                "saving", "every V-SLAM", "saving", "kf/min");
   out << line;
   auto print = [&](const BandwidthRow& r) {
     const bool known = r.has_agent_stats;
     char saving_all[16] = "n/a", saving_vslam[16] = "n/a";
-    if (known && r.bytes_received) {
+    if (known && r.bytes_received_with_baseline) {
       std::snprintf(saving_all, sizeof saving_all, "%.1fx", r.saving_vs_stream_all());
       std::snprintf(saving_vslam, sizeof saving_vslam, "%.1fx", r.saving_vs_vslam());
     }
-    std::snprintf(line, sizeof line,
-                  "%-10s %6llu %5llu %10s %12s %9llu %6llu %14s %8s %14s %8s %7.1f\n",
-                  r.robot_id.c_str(), static_cast<unsigned long long>(r.keyframes_stored),
-                  static_cast<unsigned long long>(r.rejected), human_bytes(r.bytes_received).c_str(),
-                  known ? std::to_string(r.frames_seen).c_str() : "n/a",
-                  static_cast<unsigned long long>(r.keyframes_resent),
-                  static_cast<unsigned long long>(r.keyframes_dropped),
-                  with_label(r.stream_all_bytes, r.stream_all_estimated, known).c_str(), saving_all,
-                  with_label(r.vslam_keyframe_bytes, r.vslam_keyframe_estimated, known).c_str(),
-                  saving_vslam, r.keyframes_per_minute);
+    std::snprintf(
+        line, sizeof line, "%-10s %6llu %5llu %10s %12s %9llu %6llu %14s %8s %14s %8s %7.1f\n",
+        r.robot_id.c_str(), static_cast<unsigned long long>(r.keyframes_stored),
+        static_cast<unsigned long long>(r.rejected), human_bytes(r.bytes_received).c_str(),
+        known ? std::to_string(r.frames_seen).c_str() : "n/a",
+        static_cast<unsigned long long>(r.keyframes_resent),
+        static_cast<unsigned long long>(r.keyframes_dropped),
+        with_label(r.stream_all_bytes, r.stream_all_estimated, known).c_str(), saving_all,
+        with_label(r.vslam_keyframe_bytes, r.vslam_keyframe_estimated, known).c_str(), saving_vslam,
+        r.keyframes_per_minute);
     out << line;
   };
   for (const auto& r : report.robots) print(r);
@@ -128,6 +138,7 @@ std::string to_json(const BandwidthReport& report) {
                           {"keyframes_stored", r.keyframes_stored},
                           {"rejected", r.rejected},
                           {"bytes_received", r.bytes_received},
+                          {"bytes_received_with_baseline", r.bytes_received_with_baseline},
                           {"has_agent_stats", r.has_agent_stats},
                           {"agent_finished", r.agent_finished},
                           {"frames_seen", r.frames_seen},
@@ -164,8 +175,8 @@ std::string to_csv(const BandwidthReport& report) {
         << r.keyframes_resent << ',' << r.keyframes_dropped << ',' << r.keyframes_pending << ','
         << r.bytes_sent_total << ',' << r.stream_all_bytes << ',' << r.stream_all_estimated << ','
         << r.vslam_keyframe_bytes << ',' << r.vslam_keyframe_estimated << ','
-        << r.saving_vs_stream_all() << ',' << r.saving_vs_vslam() << ','
-        << r.keyframes_per_minute << '\n';
+        << r.saving_vs_stream_all() << ',' << r.saving_vs_vslam() << ',' << r.keyframes_per_minute
+        << '\n';
   };
   for (const auto& r : report.robots) row(r);
   row(report.fleet);

@@ -108,8 +108,9 @@ std::size_t read_mission_log_kinds(const std::string& path, std::vector<std::str
       default: kinds.emplace_back("unknown"); break;
     }
   }
-  if (!clean_eof) throw std::runtime_error("mission log " + path + " is corrupt after " +
-                                           std::to_string(kinds.size()) + " records");
+  if (!clean_eof)
+    throw std::runtime_error("mission log " + path + " is corrupt after " +
+                             std::to_string(kinds.size()) + " records");
   return kinds.size();
 }
 

@@ -43,8 +43,8 @@ int run(const Options& options) {
       std::filesystem::path(options.run_dir) / config.outbox.path;
   agent::Outbox outbox(outbox_path.string(), config.robot_id, config.outbox);
   if (outbox.pending() > 0)
-    logger->info("outbox {} holds {} unacknowledged keyframe(s) from an earlier run",
-                 outbox.path(), outbox.pending());
+    logger->info("outbox {} holds {} unacknowledged keyframe(s) from an earlier run", outbox.path(),
+                 outbox.pending());
   auto link = make_dds_agent_link(config.dds, logger);
   agent::KeyframeAgent pipeline(config, agent::make_selector(config.selector),
                                 std::make_unique<JpegCodec>(config.codec.jpeg_quality), outbox,

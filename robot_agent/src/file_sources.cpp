@@ -22,8 +22,8 @@ class ImageFolderSource final : public FrameSource {
  public:
   ImageFolderSource(const SourceConfig& config, Logger logger)
       : config_(config), logger_(std::move(logger)) {
-    static const std::set<std::string> kExtensions = {".png", ".jpg", ".jpeg", ".bmp",
-                                                      ".tif", ".tiff", ".ppm", ".pgm"};
+    static const std::set<std::string> kExtensions = {".png", ".jpg",  ".jpeg", ".bmp",
+                                                      ".tif", ".tiff", ".ppm",  ".pgm"};
     std::error_code error;
     if (!fs::is_directory(config.path, error))
       throw StartupError("source.path: image folder '" + config.path +

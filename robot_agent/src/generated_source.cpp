@@ -11,8 +11,8 @@ namespace keyfleet::agent {
 namespace {
 
 constexpr std::array<const char*, 16> kShopWords = {
-    "HOTEL", "PHARMACY", "BAKERY", "CAFE",  "BOOKS",  "MARKET", "BANK",   "PIZZA",
-    "FLOWERS", "SHOES",  "MUSEUM", "TAXI",  "GARAGE", "CINEMA", "TOYS",   "DELI"};
+    "HOTEL",   "PHARMACY", "BAKERY", "CAFE", "BOOKS",  "MARKET", "BANK", "PIZZA",
+    "FLOWERS", "SHOES",    "MUSEUM", "TAXI", "GARAGE", "CINEMA", "TOYS", "DELI"};
 
 cv::Scalar random_colour(cv::RNG& rng, int low, int high) {
   return cv::Scalar(rng.uniform(low, high), rng.uniform(low, high), rng.uniform(low, high));
@@ -44,8 +44,8 @@ cv::Mat draw_street(int frame_width, int frame_height, cv::RNG& rng) {
                          text.height + baseline + 20);
     cv::rectangle(street, board & cv::Rect(0, 0, width, height), random_colour(rng, 200, 255),
                   cv::FILLED);
-    cv::putText(street, word, origin, cv::FONT_HERSHEY_DUPLEX, scale, random_colour(rng, 0, 80),
-                3, cv::LINE_AA);
+    cv::putText(street, word, origin, cv::FONT_HERSHEY_DUPLEX, scale, random_colour(rng, 0, 80), 3,
+                cv::LINE_AA);
     x += facade_width + rng.uniform(0, 20);
   }
   return street;
@@ -60,7 +60,7 @@ class GeneratedSource final : public FrameSource {
   }
 
   std::optional<Frame> next() override {
-    if (emitted_ >= config_.max_frames) return std::nullopt;
+    if (config_.max_frames && emitted_ >= config_.max_frames) return std::nullopt;
     const double t = static_cast<double>(emitted_);
     const double travel = street_.cols - config_.width * 1.3;
     const double phase = std::fmod(t * speed_px_, 2 * travel);
@@ -87,7 +87,8 @@ class GeneratedSource final : public FrameSource {
   double fps() const override { return config_.fps; }
   std::string describe() const override {
     return "generated street (seed " + std::to_string(config_.seed) + ", " +
-           std::to_string(config_.max_frames) + " frames)";
+           (config_.max_frames ? std::to_string(config_.max_frames) + " frames)"
+                               : std::string("until stopped)"));
   }
 
  private:

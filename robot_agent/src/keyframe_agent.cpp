@@ -68,7 +68,7 @@ void KeyframeAgent::publish_selection(const Selection& selection, std::int64_t n
   if (!result.ok) {
     logger_->warn("keyframe {} not sent now ({}); it stays in the outbox for a resend",
                   keyframe.sequence_number, result.error);
-    ledger_.record_sent(0);
+    never_sent_.insert(keyframe.sequence_number);
     return;
   }
   ledger_.record_sent(result.serialized_bytes);
@@ -87,11 +87,15 @@ void KeyframeAgent::service(std::int64_t now_ns, std::chrono::milliseconds ack_w
     }
   }
   if (link_.matched_stations() > 0) {
-    const auto due = outbox_.due_for_resend(now_ns, static_cast<std::size_t>(config_.outbox.resend_batch));
+    const auto due =
+        outbox_.due_for_resend(now_ns, static_cast<std::size_t>(config_.outbox.resend_batch));
     for (const auto& keyframe : due) {
       const PublishResult result = link_.publish(keyframe);
       if (!result.ok) break;  // the writer is busy: try again on the next pass
-      ledger_.record_resent(result.serialized_bytes);
+      if (never_sent_.erase(keyframe.sequence_number) > 0)
+        ledger_.record_sent(result.serialized_bytes);
+      else
+        ledger_.record_resent(result.serialized_bytes);
       outbox_.mark_sent(keyframe.sequence_number, now_ns);
     }
     if (!due.empty())
@@ -100,6 +104,7 @@ void KeyframeAgent::service(std::int64_t now_ns, std::chrono::milliseconds ack_w
   }
   const auto evicted = outbox_.evict(now_ns);
   if (!evicted.empty()) {
+    for (const auto sequence : evicted) never_sent_.erase(sequence);
     ledger_.record_dropped(evicted.size());
     logger_->error(
         "outbox bounds reached: gave up on {} unacknowledged keyframe(s) {}..{} "

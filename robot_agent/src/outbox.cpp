@@ -54,8 +54,8 @@ Outbox::Outbox(const std::string& path, const std::string& robot_id, const Outbo
   auto owner = db_.prepare("SELECT value FROM meta WHERE key='robot_id'");
   if (owner.step()) {
     if (owner.text(0) != robot_id)
-      throw StartupError("outbox " + path + " belongs to robot '" + owner.text(0) +
-                         "', not '" + robot_id + "': use another outbox.path or run directory");
+      throw StartupError("outbox " + path + " belongs to robot '" + owner.text(0) + "', not '" +
+                         robot_id + "': use another outbox.path or run directory");
   } else {
     db_.prepare("INSERT INTO meta(key, value) VALUES('robot_id', ?)").bind(1, robot_id).step();
   }

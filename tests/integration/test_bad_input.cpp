@@ -64,8 +64,8 @@ TEST_F(BadInput, BadValueSaysWhatIsAllowed) {
 }
 
 TEST_F(BadInput, UnreadableImageFolderIsNamed) {
-  const auto path = write_config(
-      "folder.yaml", "source:\n  kind: folder\n  path: /nonexistent/frames\n");
+  const auto path =
+      write_config("folder.yaml", "source:\n  kind: folder\n  path: /nonexistent/frames\n");
   const auto [status, output] =
       run_agent({"--config", path.string(), "--run-dir", (run_dir_ / "a").string()});
   EXPECT_EQ(status.code, 1);

@@ -115,12 +115,12 @@ TEST_F(StationOutage, KeyframesPublishedWhileStationIsDownArriveOnceAfterRestart
   };
   std::int64_t before = 0;
   for (const auto& [robot, n] : stored_before) before += n;
-  std::cout << "[outage figures] stored before kill: " << before
-            << ", station down for " << ms(restarted_at - killed_at) << " ms, "
-            << pending_at_restart << " keyframes pending at restart, all acknowledged "
-            << ms(recovered_at - restarted_at) << " ms after restart, "
-            << report["fleet"]["keyframes_resent"].get<int>() << " retransmissions, "
-            << report["fleet"]["keyframes_stored"].get<int>() << " stored in all\n";
+  std::cout << "[outage figures] stored before kill: " << before << ", station down for "
+            << ms(restarted_at - killed_at) << " ms, " << pending_at_restart
+            << " keyframes pending at restart, all acknowledged " << ms(recovered_at - restarted_at)
+            << " ms after restart, " << report["fleet"]["keyframes_resent"].get<int>()
+            << " retransmissions, " << report["fleet"]["keyframes_stored"].get<int>()
+            << " stored in all\n";
 }
 
 }  // namespace

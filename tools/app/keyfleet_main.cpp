@@ -42,14 +42,16 @@ int main(int argc, char** argv) {
   CLI::App app{"keyfleet: keyframe sharing for robot fleets over weak links"};
   app.require_subcommand(1);
 
-  auto* mission = app.add_subcommand("mission", "run a simulated multi-drone mission on this machine");
+  auto* mission =
+      app.add_subcommand("mission", "run a simulated multi-drone mission on this machine");
   std::string config_path;
   int drones = 0;
   std::string run_root;
   mission->add_option("config", config_path, "mission YAML (see configs/demo_mission.yaml)")
       ->required()
       ->check(CLI::ExistingFile);
-  mission->add_option("--drones", drones, "override the number of drones")->check(CLI::Range(1, 64));
+  mission->add_option("--drones", drones, "override the number of drones")
+      ->check(CLI::Range(1, 64));
   mission->add_option("--run-root", run_root, "override where run folders are created");
 
   CLI11_PARSE(app, argc, argv);

@@ -18,7 +18,8 @@ inline std::vector<std::vector<std::uint8_t>> expected_images(const AgentConfig&
   while (auto frame = source->next())
     for (const auto& selection : selector->push(*frame).selected)
       images.push_back(codec.encode(selection.frame.image));
-  for (const auto& selection : selector->finish()) images.push_back(codec.encode(selection.frame.image));
+  for (const auto& selection : selector->finish())
+    images.push_back(codec.encode(selection.frame.image));
   return images;
 }
 

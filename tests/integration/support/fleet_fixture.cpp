@@ -23,16 +23,18 @@ void FleetFixture::SetUp() {
   std::random_device entropy;
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
   run_dir_ = fs::temp_directory_path() /
-             ("keyfleet-it-" + std::string(info->name()) + "-" + std::to_string(::getpid()) +
-              "-" + std::to_string(entropy() % 100000));
+             ("keyfleet-it-" + std::string(info->name()) + "-" + std::to_string(::getpid()) + "-" +
+              std::to_string(entropy() % 100000));
   fs::create_directories(run_dir_);
   domain_id_ = static_cast<int>(100 + (static_cast<unsigned>(::getpid()) + entropy()) % 130);
   partition_ = "it-" + std::string(info->name()) + "-" + std::to_string(entropy());
 }
 
 void FleetFixture::TearDown() {
-  if (!HasFailure()) fs::remove_all(run_dir_);
-  else std::cerr << "run folder kept for inspection: " << run_dir_ << "\n";
+  if (!HasFailure())
+    fs::remove_all(run_dir_);
+  else
+    std::cerr << "run folder kept for inspection: " << run_dir_ << "\n";
 }
 
 DdsSettings FleetFixture::dds() const {

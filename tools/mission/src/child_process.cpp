@@ -48,8 +48,7 @@ ChildProcess::ChildProcess(std::string name, const std::vector<std::string>& arg
   std::vector<char*> args;
   for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
-  const int rc =
-      posix_spawnp(&pid_, args[0], &actions, &attributes, args.data(), environ);
+  const int rc = posix_spawnp(&pid_, args[0], &actions, &attributes, args.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
   posix_spawnattr_destroy(&attributes);
   if (rc != 0)

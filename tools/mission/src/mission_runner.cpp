@@ -83,17 +83,15 @@ MissionRunner::MissionRunner(MissionConfig config, MissionBinaries binaries, Log
 
 MissionResult MissionRunner::run(const StopToken& stop) {
   MissionResult result;
-  const fs::path run_dir =
-      fs::absolute(config_.run_root) / (config_.name + "-" + timestamp() + "-" +
-                                        std::to_string(::getpid()));
+  const fs::path run_dir = fs::absolute(config_.run_root) /
+                           (config_.name + "-" + timestamp() + "-" + std::to_string(::getpid()));
   fs::create_directories(run_dir / "config");
   result.run_dir = run_dir.string();
 
   std::random_device entropy;
   const int domain = config_.domain_id.value_or(static_cast<int>(10 + entropy() % 200));
-  const std::string partition =
-      "keyfleet-" + config_.name + "-" + std::to_string(::getpid()) + "-" +
-      std::to_string(entropy() % 1000000);
+  const std::string partition = "keyfleet-" + config_.name + "-" + std::to_string(::getpid()) +
+                                "-" + std::to_string(entropy() % 1000000);
   config_.station.dds.domain_id = domain;
   config_.station.dds.partition = partition;
   write_text(run_dir / "config" / "station.yaml", to_yaml(config_.station));
@@ -105,11 +103,11 @@ MissionResult MissionRunner::run(const StopToken& stop) {
 
   const fs::path station_dir = run_dir / "station";
   fs::create_directories(station_dir);
-  ChildProcess station("ground_station",
-                       {binaries_.ground_station, "--config",
-                        (run_dir / "config" / "station.yaml").string(), "--run-dir",
-                        station_dir.string()},
-                       (station_dir / "station.log").string());
+  ChildProcess station(
+      "ground_station",
+      {binaries_.ground_station, "--config", (run_dir / "config" / "station.yaml").string(),
+       "--run-dir", station_dir.string()},
+      (station_dir / "station.log").string());
 
   std::vector<std::unique_ptr<ChildProcess>> agents;
   for (int i = 0; i < config_.drones; ++i) {
@@ -189,13 +187,14 @@ MissionResult MissionRunner::run(const StopToken& stop) {
   // Let the station drain, then stop it and take its report.
   if (!station_died) {
     station.signal(SIGTERM);
-    const auto drained = std::chrono::milliseconds(
-        static_cast<long>(config_.station_drain_timeout_s * 1000));
+    const auto drained =
+        std::chrono::milliseconds(static_cast<long>(config_.station_drain_timeout_s * 1000));
     auto status = station.wait_for(drained);
     if (!status) {
       station.signal(SIGKILL);
       station.wait_for(milliseconds(5000));
-      result.failures.push_back("ground_station did not stop within station_drain_timeout_s; killed");
+      result.failures.push_back(
+          "ground_station did not stop within station_drain_timeout_s; killed");
     } else if (!status->ok()) {
       result.failures.push_back(failure_line(station, *status));
     }

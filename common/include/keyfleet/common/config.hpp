@@ -14,8 +14,8 @@ struct DdsSettings {
     kLocalhost,  // SHM + UDPv4 on 127.0.0.1 only, no multicast: one-machine missions and tests
     kNetwork,    // Fast DDS's built-in transports on all interfaces, plus initial_peers
   };
-  int domain_id = 0;                       // 0..232; overridden by --domain / KEYFLEET_DOMAIN
-  std::string partition = "keyfleet";      // overridden by --partition / KEYFLEET_PARTITION
+  int domain_id = 0;                   // 0..232; overridden by --domain / KEYFLEET_DOMAIN
+  std::string partition = "keyfleet";  // overridden by --partition / KEYFLEET_PARTITION
   Transport transport = Transport::kLocalhost;
   std::vector<std::string> initial_peers;  // kNetwork: IPv4 addresses of other hosts
   double lease_duration_s = 4.0;           // a silent peer is dropped after this long
@@ -31,9 +31,10 @@ struct SourceConfig {
   double fps = 30.0;             // frame rate of the stream (also the timestamps' rate)
   bool realtime = true;          // pace frames at fps; false = as fast as possible
   std::uint64_t max_frames = 0;  // stop after this many frames; 0 = whole source
+                                 // (kGenerated: 0 = fly until stopped)
   int width = 640;               // kGenerated: frame size in pixels
   int height = 480;
-  std::uint64_t seed = 1;        // kGenerated: scene and flight seed
+  std::uint64_t seed = 1;  // kGenerated: scene and flight seed
 };
 
 struct SelectorConfig {
@@ -58,8 +59,8 @@ struct LedgerConfig {
 struct OutboxConfig {
   std::string path = "outbox.sqlite";  // relative to the run directory
   std::uint64_t max_pending = 1000;    // unacknowledged keyframes kept at most
-  double max_age_s = 3600.0;           // oldest unacknowledged keyframe kept at most this long
-  double resend_after_s = 2.0;         // resend when unacknowledged this long
+  double max_age_s = 3600.0;           // oldest unacknowledged keyframe kept at most this long (s)
+  double resend_after_s = 2.0;         // resend when unacknowledged this long (s)
   int resend_batch = 20;               // at most this many retransmissions per resend pass
 };
 
@@ -86,7 +87,7 @@ struct StationLimits {
 struct StationConfig {
   DdsSettings dds;
   StationLimits limits;
-  std::string database = "station.sqlite";   // relative to the run directory
+  std::string database = "station.sqlite";  // relative to the run directory
   std::string mission_log = "mission_log.pb";
   double report_period_s = 5.0;  // live bandwidth line in the log
   std::string log_level = "info";

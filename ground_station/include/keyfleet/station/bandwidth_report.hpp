@@ -14,6 +14,9 @@ struct BandwidthRow {
   std::uint64_t keyframes_stored = 0;
   std::uint64_t rejected = 0;
   std::uint64_t bytes_received = 0;  // serialized samples, first copies, measured at the station
+  // The part of bytes_received from robots whose stats (and so baselines) are known:
+  // savings compare like with like.
+  std::uint64_t bytes_received_with_baseline = 0;
   std::uint64_t frames_seen = 0;
   std::uint64_t vslam_keyframes = 0;
   std::uint64_t keyframes_sent = 0;
@@ -27,8 +30,8 @@ struct BandwidthRow {
   bool vslam_keyframe_estimated = false;
   bool has_agent_stats = false;
   bool agent_finished = false;
-  double keyframes_per_minute = 0;  // over the span the station received them
-  double saving_vs_stream_all() const;  // stream_all_bytes / bytes_received (0 if unknown)
+  double keyframes_per_minute = 0;      // over the span the station received them
+  double saving_vs_stream_all() const;  // stream_all_bytes / bytes_received_with_baseline
   double saving_vs_vslam() const;
 };
 

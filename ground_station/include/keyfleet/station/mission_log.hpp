@@ -12,8 +12,7 @@ class MissionLog {
  public:
   explicit MissionLog(const std::string& path);  // throws StartupError when unwritable
 
-  void keyframe(const Keyframe& keyframe, std::uint64_t serialized_bytes,
-                std::int64_t received_ns);
+  void keyframe(const Keyframe& keyframe, std::uint64_t serialized_bytes, std::int64_t received_ns);
   void rejected(const std::string& robot_id, std::uint64_t sequence, const std::string& reason,
                 std::int64_t received_ns);
   void agent_stats(const AgentStats& stats);
@@ -30,7 +29,6 @@ class MissionLog {
 
 // Reads a mission log back (for tools and tests): appends each record's kind
 // (keyframe, rejected, agent_stats, event). Throws std::runtime_error on a corrupt file.
-std::size_t read_mission_log_kinds(const std::string& path,
-                                   std::vector<std::string>& record_kinds);
+std::size_t read_mission_log_kinds(const std::string& path, std::vector<std::string>& record_kinds);
 
 }  // namespace keyfleet::station

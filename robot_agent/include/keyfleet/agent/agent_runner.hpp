@@ -6,17 +6,17 @@
 namespace keyfleet::agent {
 
 enum class AgentOutcome {
-  kDelivered,     // every keyframe acknowledged by a station
-  kUndelivered,   // drain timed out: keyframes remain in the outbox file
-  kStopped,       // stopped by a signal; the outbox keeps what was not acknowledged
+  kDelivered,    // every keyframe acknowledged by a station
+  kUndelivered,  // drain timed out: keyframes remain in the outbox file
+  kStopped,      // stopped by a signal; the outbox keeps what was not acknowledged
 };
 
 // Drives a KeyframeAgent from a FrameSource in real time (or as fast as possible),
 // waiting on the stop token instead of sleeping, then drains the outbox.
 class AgentRunner {
  public:
-  AgentRunner(const AgentConfig& config, FrameSource& source, KeyframeAgent& agent,
-              AgentLink& link, Logger logger);
+  AgentRunner(const AgentConfig& config, FrameSource& source, KeyframeAgent& agent, AgentLink& link,
+              Logger logger);
   AgentOutcome run(const StopToken& stop);
 
  private:

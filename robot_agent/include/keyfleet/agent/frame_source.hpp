@@ -12,9 +12,9 @@
 namespace keyfleet::agent {
 
 struct Frame {
-  std::uint64_t index = 0;          // 0-based position in the stream
-  std::int64_t capture_time_ns = 0; // stream clock: index / fps for recorded sources
-  cv::Mat image;                    // BGR, 8 bits per channel
+  std::uint64_t index = 0;           // 0-based position in the stream
+  std::int64_t capture_time_ns = 0;  // stream clock: index / fps for recorded sources
+  cv::Mat image;                     // BGR, 8 bits per channel
 };
 
 // Seam for where frames come from (camera, recording, simulator). next() returns

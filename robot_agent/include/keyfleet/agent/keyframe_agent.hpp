@@ -1,6 +1,7 @@
 #pragma once
 #include <chrono>
 #include <memory>
+#include <set>
 
 #include "keyfleet/agent/keyframe_selector.hpp"
 #include "keyfleet/agent/outbox.hpp"
@@ -18,8 +19,7 @@ namespace keyfleet::agent {
 class KeyframeAgent {
  public:
   KeyframeAgent(const AgentConfig& config, std::unique_ptr<KeyframeSelector> selector,
-                std::unique_ptr<ImageCodec> codec, Outbox& outbox, AgentLink& link,
-                Logger logger);
+                std::unique_ptr<ImageCodec> codec, Outbox& outbox, AgentLink& link, Logger logger);
 
   void process(const Frame& frame, std::int64_t now_ns);
   void finish_stream(std::int64_t now_ns);
@@ -46,6 +46,7 @@ class KeyframeAgent {
   BandwidthLedger ledger_;
   StageClock clock_;
   std::uint64_t rejected_ = 0;
+  std::set<std::uint64_t> never_sent_;  // in the outbox, first write failed
 };
 
 }  // namespace keyfleet::agent

@@ -20,8 +20,8 @@ struct Selection {
 };
 
 struct SelectorStep {
-  bool vslam_keyframe = false;     // the pushed frame is a V-SLAM keyframe (baseline event)
-  std::vector<Selection> selected; // frames chosen by this step (possibly earlier ones)
+  bool vslam_keyframe = false;      // the pushed frame is a V-SLAM keyframe (baseline event)
+  std::vector<Selection> selected;  // frames chosen by this step (possibly earlier ones)
 };
 
 // Seam for keyframe selection: one synchronous step per frame. Selections may lag the

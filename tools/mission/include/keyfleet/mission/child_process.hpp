@@ -20,8 +20,7 @@ struct ExitStatus {
 class ChildProcess {
  public:
   // Throws std::runtime_error when the program cannot be started.
-  ChildProcess(std::string name, const std::vector<std::string>& argv,
-               const std::string& log_path);
+  ChildProcess(std::string name, const std::vector<std::string>& argv, const std::string& log_path);
   ~ChildProcess();
   ChildProcess(const ChildProcess&) = delete;
   ChildProcess& operator=(const ChildProcess&) = delete;

@@ -1,0 +1,18 @@
+# Ground station image. Build from the repository root:
+#   docker build -f docker/station.Dockerfile -t keyfleet-station .
+FROM debian:12 AS build
+COPY scripts/install_deps.sh /src/scripts/install_deps.sh
+RUN /src/scripts/install_deps.sh
+COPY . /src
+RUN cmake -S /src -B /build -G Ninja -DCMAKE_BUILD_TYPE=Release -DKEYFLEET_BUILD_TESTS=OFF \
+ && cmake --build /build --target ground_station
+
+FROM debian:12
+COPY scripts/install_deps.sh /opt/keyfleet/install_deps.sh
+RUN /opt/keyfleet/install_deps.sh && rm -rf /var/lib/apt/lists/*
+COPY --from=build /build/bin/ground_station /usr/local/bin/ground_station
+COPY configs /opt/keyfleet/configs
+COPY docker/configs /opt/keyfleet/docker-configs
+WORKDIR /data
+ENTRYPOINT ["ground_station"]
+CMD ["--config", "/opt/keyfleet/docker-configs/station.yaml", "--run-dir", "/data"]

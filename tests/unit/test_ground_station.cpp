@@ -1,0 +1,225 @@
+// GroundStation driven through an in-memory StationLink: acks, exactly-once storage,
+// and resilience to bad samples and storage failures.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "keyfleet/common/config.hpp"
+#include "keyfleet/common/logging.hpp"
+#include "keyfleet/common/sqlite.hpp"
+#include "keyfleet/common/transport.hpp"
+#include "keyfleet/station/ground_station.hpp"
+#include "keyfleet/station/keyframe_store.hpp"
+#include "keyfleet/station/mission_log.hpp"
+#include "test_support.hpp"
+
+namespace keyfleet::station {
+namespace {
+
+// Hands out queued inboxes one per take() and records every acknowledgement.
+class FakeStationLink : public StationLink {
+ public:
+  void queue(StationInbox inbox) { inboxes_.push_back(std::move(inbox)); }
+
+  StationInbox take(std::chrono::milliseconds wait, std::size_t max_keyframes) override {
+    last_wait = wait;
+    last_max_keyframes = max_keyframes;
+    if (inboxes_.empty()) return {};
+    StationInbox inbox = std::move(inboxes_.front());
+    inboxes_.pop_front();
+    return inbox;
+  }
+
+  PublishResult acknowledge(const KeyframeAck& ack) override {
+    acks.push_back(ack);
+    PublishResult result;
+    result.ok = acknowledge_ok;
+    result.serialized_bytes = acknowledge_ok ? 64 : 0;
+    if (!acknowledge_ok) result.error = "writer busy";
+    return result;
+  }
+
+  std::size_t matched_agents() const override { return 1; }
+
+  std::vector<KeyframeAck> acks;
+  bool acknowledge_ok = true;
+  std::chrono::milliseconds last_wait{-1};
+  std::size_t last_max_keyframes = 0;
+
+ private:
+  std::deque<StationInbox> inboxes_;
+};
+
+ReceivedKeyframe received(const Keyframe& k) { return ReceivedKeyframe{k, k.image.size() + 200}; }
+
+Keyframe corrupt_keyframe(const std::string& robot, std::uint64_t sequence) {
+  Keyframe k = keyfleet::test::make_valid_keyframe(robot, sequence);
+  k.image = keyfleet::test::random_bytes(k.image.size(), 99);
+  return k;
+}
+
+class GroundStationTest : public ::testing::Test {
+ protected:
+  std::size_t step_with(std::vector<ReceivedKeyframe> keyframes,
+                        std::vector<AgentStats> stats = {}) {
+    StationInbox inbox;
+    inbox.keyframes = std::move(keyframes);
+    inbox.stats = std::move(stats);
+    link_.queue(std::move(inbox));
+    return station_.step(std::chrono::milliseconds(0));
+  }
+
+  std::vector<std::string> log_kinds() {
+    std::vector<std::string> kinds;
+    read_mission_log_kinds(log_.path(), kinds);
+    return kinds;
+  }
+
+  keyfleet::test::TempDir dir_;
+  StationLimits limits_;
+  KeyframeStore store_{dir_.file("station.sqlite")};
+  MissionLog log_{dir_.file("mission_log.pb")};
+  FakeStationLink link_;
+  GroundStation station_{limits_, store_, log_, link_, null_logger()};
+};
+
+TEST_F(GroundStationTest, StepWithNothingArrivedDoesNothing) {
+  EXPECT_EQ(station_.step(std::chrono::milliseconds(5)), 0u);
+  EXPECT_TRUE(link_.acks.empty());
+  EXPECT_EQ(link_.last_wait, std::chrono::milliseconds(5));
+  EXPECT_GT(link_.last_max_keyframes, 0u);
+}
+
+TEST_F(GroundStationTest, GoodDuplicateAndCorruptKeyframesGetMatchingAcks) {
+  const Keyframe good = keyfleet::test::make_valid_keyframe("drone_0", 0);
+  const std::size_t handled =
+      step_with({received(good), received(good), received(corrupt_keyframe("drone_0", 1))});
+  EXPECT_EQ(handled, 3u);
+
+  ASSERT_EQ(link_.acks.size(), 3u);
+  EXPECT_EQ(link_.acks[0].robot_id, "drone_0");
+  EXPECT_EQ(link_.acks[0].sequence_number, 0u);
+  EXPECT_EQ(link_.acks[0].status, AckStatus::kStored);
+  EXPECT_EQ(link_.acks[1].sequence_number, 0u);
+  EXPECT_EQ(link_.acks[1].status, AckStatus::kDuplicate);
+  EXPECT_EQ(link_.acks[2].sequence_number, 1u);
+  EXPECT_EQ(link_.acks[2].status, AckStatus::kRejected);
+  EXPECT_FALSE(link_.acks[2].reason.empty());
+
+  EXPECT_EQ(store_.keyframe_count(), 1u);
+  const auto totals = store_.totals();
+  ASSERT_EQ(totals.size(), 1u);
+  EXPECT_EQ(totals[0].keyframes, 1u);
+  EXPECT_EQ(totals[0].rejected, 1u);
+  EXPECT_EQ(totals[0].serialized_bytes, good.image.size() + 200);
+}
+
+TEST_F(GroundStationTest, KeepsWorkingAfterABadKeyframe) {
+  step_with({received(corrupt_keyframe("drone_0", 0))});
+  ASSERT_EQ(link_.acks.size(), 1u);
+  ASSERT_EQ(link_.acks[0].status, AckStatus::kRejected);
+
+  step_with({received(keyfleet::test::make_valid_keyframe("drone_0", 1))});
+  ASSERT_EQ(link_.acks.size(), 2u);
+  EXPECT_EQ(link_.acks[1].status, AckStatus::kStored);
+  EXPECT_EQ(store_.keyframe_count(), 1u);
+}
+
+TEST_F(GroundStationTest, MalformedRobotIdIsRejectedAndNotCountedAsARobot) {
+  Keyframe k = keyfleet::test::make_valid_keyframe("bad id!", 0);
+  step_with({received(k)});
+  ASSERT_EQ(link_.acks.size(), 1u);
+  EXPECT_EQ(link_.acks[0].status, AckStatus::kRejected);
+  EXPECT_NE(link_.acks[0].reason.find("robot id"), std::string::npos) << link_.acks[0].reason;
+  EXPECT_TRUE(station_.robots().empty());
+  EXPECT_EQ(store_.keyframe_count(), 0u);
+}
+
+TEST_F(GroundStationTest, RepeatedRejectionIsLoggedOnceButAcknowledgedEachTime) {
+  const Keyframe bad = corrupt_keyframe("drone_0", 4);
+  step_with({received(bad), received(bad)});
+  ASSERT_EQ(link_.acks.size(), 2u);
+  EXPECT_EQ(link_.acks[0].status, AckStatus::kRejected);
+  EXPECT_EQ(link_.acks[1].status, AckStatus::kRejected);
+  EXPECT_EQ(link_.acks[0].reason, link_.acks[1].reason);
+  EXPECT_EQ(log_kinds(), (std::vector<std::string>{"rejected"}));
+}
+
+TEST_F(GroundStationTest, MissionLogRecordsJoinStoreAndRejectionButNotDuplicates) {
+  const Keyframe good = keyfleet::test::make_valid_keyframe("drone_0", 0);
+  step_with({received(good), received(good), received(corrupt_keyframe("drone_0", 1))});
+  EXPECT_EQ(log_kinds(), (std::vector<std::string>{"event", "keyframe", "rejected"}));
+}
+
+TEST_F(GroundStationTest, TracksEachRobotOnce) {
+  step_with({received(keyfleet::test::make_valid_keyframe("alpha", 0)),
+             received(keyfleet::test::make_valid_keyframe("alpha", 1)),
+             received(keyfleet::test::make_valid_keyframe("bravo", 0))});
+  EXPECT_EQ(station_.robots(), (std::set<std::string>{"alpha", "bravo"}));
+  EXPECT_EQ(store_.keyframe_count(), 3u);
+}
+
+TEST_F(GroundStationTest, AgentStatsAreStoredAndLogged) {
+  AgentStats stats;
+  stats.robot_id = "drone_3";
+  stats.report_time_ns = 1000;
+  stats.frames_seen = 90;
+  EXPECT_EQ(step_with({}, {stats}), 0u);
+  const auto totals = store_.totals();
+  ASSERT_EQ(totals.size(), 1u);
+  ASSERT_TRUE(totals[0].latest_stats.has_value());
+  EXPECT_EQ(totals[0].latest_stats->frames_seen, 90u);
+  EXPECT_EQ(station_.robots().count("drone_3"), 1u);
+  EXPECT_EQ(log_kinds(), (std::vector<std::string>{"event", "agent_stats"}));
+}
+
+TEST_F(GroundStationTest, AgentStatsWithMalformedRobotIdAreIgnored) {
+  AgentStats stats;
+  stats.robot_id = "not valid!";
+  step_with({}, {stats});
+  EXPECT_TRUE(store_.totals().empty());
+  EXPECT_TRUE(station_.robots().empty());
+  EXPECT_TRUE(log_kinds().empty());
+}
+
+TEST_F(GroundStationTest, FailedAcknowledgementDoesNotStopTheStation) {
+  link_.acknowledge_ok = false;
+  step_with({received(keyfleet::test::make_valid_keyframe("drone_0", 0))});
+  link_.acknowledge_ok = true;
+  step_with({received(keyfleet::test::make_valid_keyframe("drone_0", 0)),
+             received(keyfleet::test::make_valid_keyframe("drone_0", 1))});
+  ASSERT_EQ(link_.acks.size(), 3u);
+  EXPECT_EQ(link_.acks[1].status, AckStatus::kDuplicate);  // the resend after a lost ack
+  EXPECT_EQ(link_.acks[2].status, AckStatus::kStored);
+  EXPECT_EQ(store_.keyframe_count(), 2u);
+}
+
+TEST_F(GroundStationTest, StorageFailureIsNotAcknowledgedSoTheAgentResends) {
+  {
+    SqliteDb saboteur(store_.path());
+    saboteur.exec("DROP TABLE keyframes");
+  }
+  std::size_t handled = 0;
+  EXPECT_NO_THROW(handled =
+                      step_with({received(keyfleet::test::make_valid_keyframe("drone_0", 0))}));
+  EXPECT_EQ(handled, 1u);
+  EXPECT_TRUE(link_.acks.empty());
+}
+
+TEST_F(GroundStationTest, HandleReturnsTheAckWithoutSendingIt) {
+  const KeyframeAck ack =
+      station_.handle(received(keyfleet::test::make_valid_keyframe("drone_0", 0)), 12345);
+  EXPECT_EQ(ack.status, AckStatus::kStored);
+  EXPECT_TRUE(link_.acks.empty());
+  const auto totals = store_.totals();
+  ASSERT_EQ(totals.size(), 1u);
+  EXPECT_EQ(totals[0].first_received_ns, 12345);
+}
+
+}  // namespace
+}  // namespace keyfleet::station
