@@ -26,5 +26,6 @@ function(keyfleet_add_gtest name)
   gtest_discover_tests(${name}
     DISCOVERY_TIMEOUT 60
     PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}" ${lock}
+               SKIP_REGULAR_EXPRESSION "\\[  SKIPPED \\]"
     ENVIRONMENT "KEYFLEET_DATA=${KEYFLEET_DATA_DIR}")
 endfunction()
