@@ -18,6 +18,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev googletest
   libbenchmark-dev
   procps
+  fonts-dejavu-core fonts-liberation2 fonts-freefont-ttf fonts-urw-base35
 )
 
 missing=()

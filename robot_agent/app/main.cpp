@@ -31,6 +31,8 @@ int run(const Options& options) {
       throw ConfigError("--robot-id: '" + options.robot_id + "' must match [A-Za-z0-9_-]{1,32}");
     config.robot_id = options.robot_id;
   }
+  if (config.source.kind == SourceConfig::Kind::kScenario && config.source.drone.empty())
+    config.source.drone = config.robot_id;
   std::filesystem::create_directories(options.run_dir);
 
   Logger logger = make_logger("agent " + config.robot_id, config.log_level, options.log_file);

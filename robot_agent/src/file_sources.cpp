@@ -51,7 +51,7 @@ class ImageFolderSource final : public FrameSource {
         logger_->error("skipping unreadable image {}", file.string());
         continue;
       }
-      Frame frame{emitted_, stream_time_ns(emitted_, config_.fps), image};
+      Frame frame{emitted_, stream_time_ns(emitted_, config_.fps), image, std::nullopt};
       ++emitted_;
       return frame;
     }
@@ -87,7 +87,7 @@ class VideoFileSource final : public FrameSource {
     if (config_.max_frames && emitted_ >= config_.max_frames) return std::nullopt;
     cv::Mat image;
     if (!capture_.read(image) || image.empty()) return std::nullopt;
-    Frame frame{emitted_, stream_time_ns(emitted_, fps_), image};
+    Frame frame{emitted_, stream_time_ns(emitted_, fps_), image, std::nullopt};
     ++emitted_;
     return frame;
   }
@@ -118,6 +118,7 @@ std::unique_ptr<FrameSource> make_frame_source(const SourceConfig& config, Logge
     case SourceConfig::Kind::kImageFolder: return make_image_folder_source(config, logger);
     case SourceConfig::Kind::kVideoFile: return make_video_file_source(config, logger);
     case SourceConfig::Kind::kGenerated: return make_generated_source(config);
+    case SourceConfig::Kind::kScenario: return make_scenario_source(config, logger);
   }
   throw StartupError("source.kind: unsupported");
 }

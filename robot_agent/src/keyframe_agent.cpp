@@ -22,6 +22,7 @@ Keyframe KeyframeAgent::make_keyframe(const Frame& frame, std::vector<std::uint8
   keyframe.width = static_cast<std::uint32_t>(frame.image.cols);
   keyframe.height = static_cast<std::uint32_t>(frame.image.rows);
   keyframe.image = std::move(image);
+  keyframe.camera_pose = frame.pose;
   return keyframe;
 }
 

@@ -12,6 +12,8 @@
 #include <sstream>
 
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/common/scenario_truth.hpp"
+#include "keyfleet/scenario/scenario_generator.hpp"
 #include "keyfleet/common/sqlite.hpp"
 #include "keyfleet/mission/child_process.hpp"
 
@@ -96,11 +98,32 @@ MissionResult MissionRunner::run(const StopToken& stop) {
   config_.station.dds.partition = partition;
   write_text(run_dir / "config" / "station.yaml", to_yaml(config_.station));
   write_text(run_dir / "config" / "mission.yaml", to_yaml(config_));
-  progress_ << "mission '" << config_.name << "': " << config_.drones
-            << " drone(s) + station, DDS domain " << domain << ", partition " << partition
+  progress_ << "mission '" << config_.name << "': DDS domain " << domain << ", partition "
+            << partition
             << "\nrun folder: " << run_dir.string() << "\n"
             << std::flush;
 
+  // A scenario decides the drones: one agent per scenario drone, replaying its frames.
+  std::vector<std::string> robot_ids;
+  std::string scenario_dir = config_.scenario_dir;
+  if (!config_.scenario.empty()) {
+    scenario_dir = (run_dir / "scenario").string();
+    progress_ << "generating scenario " << config_.scenario << " ...\n" << std::flush;
+    const auto summary = scenario::generate_scenario(load_scenario_config(config_.scenario),
+                                                     scenario_dir, logger_);
+    progress_ << "scenario: " << summary.frames << " frames in " << summary.seconds << " s\n";
+  }
+  if (!scenario_dir.empty()) {
+    for (const auto& drone : scenario::read_scenario(scenario_dir).drones)
+      robot_ids.push_back(drone.robot_id);
+    config_.agent.source.kind = SourceConfig::Kind::kScenario;
+    config_.agent.source.path = fs::absolute(scenario_dir).string();
+  } else {
+    for (int i = 0; i < config_.drones; ++i)
+      robot_ids.push_back(config_.robot_id_prefix + std::to_string(i));
+  }
+
+  progress_ << robot_ids.size() << " drone(s) + station\n" << std::flush;
   const fs::path station_dir = run_dir / "station";
   fs::create_directories(station_dir);
   ChildProcess station(
@@ -110,9 +133,10 @@ MissionResult MissionRunner::run(const StopToken& stop) {
       (station_dir / "station.log").string());
 
   std::vector<std::unique_ptr<ChildProcess>> agents;
-  for (int i = 0; i < config_.drones; ++i) {
+  for (std::size_t i = 0; i < robot_ids.size(); ++i) {
     AgentConfig agent = config_.agent;
-    agent.robot_id = config_.robot_id_prefix + std::to_string(i);
+    agent.robot_id = robot_ids[i];
+    agent.source.drone = robot_ids[i];
     agent.source.seed = config_.agent.source.seed + static_cast<std::uint64_t>(i);
     agent.dds.domain_id = domain;
     agent.dds.partition = partition;

@@ -8,6 +8,7 @@
 
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
+#include "keyfleet/common/types.hpp"
 
 namespace keyfleet::agent {
 
@@ -15,6 +16,7 @@ struct Frame {
   std::uint64_t index = 0;           // 0-based position in the stream
   std::int64_t capture_time_ns = 0;  // stream clock: index / fps for recorded sources
   cv::Mat image;                     // BGR, 8 bits per channel
+  std::optional<Pose> pose;          // camera-to-world, when the source knows it
 };
 
 // Seam for where frames come from (camera, recording, simulator). next() returns
@@ -33,6 +35,10 @@ std::unique_ptr<FrameSource> make_image_folder_source(const SourceConfig& config
 std::unique_ptr<FrameSource> make_video_file_source(const SourceConfig& config, Logger logger);
 // A camera flying along a procedurally drawn street with signs: deterministic from the seed.
 std::unique_ptr<FrameSource> make_generated_source(const SourceConfig& config);
+
+// Replays one drone of a generated scenario (config.path = scenario folder, config.drone =
+// its robot id) with the scenario's timestamps and poses.
+std::unique_ptr<FrameSource> make_scenario_source(const SourceConfig& config, Logger logger);
 
 // Picks by config.kind; throws StartupError with the path when the source cannot open.
 std::unique_ptr<FrameSource> make_frame_source(const SourceConfig& config, Logger logger);

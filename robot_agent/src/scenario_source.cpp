@@ -1,0 +1,78 @@
+// Replays a drone of a generated scenario: its frames, timestamps and true poses.
+#include <opencv2/imgcodecs.hpp>
+
+#include <algorithm>
+#include <filesystem>
+
+#include "keyfleet/agent/frame_source.hpp"
+#include "keyfleet/common/error.hpp"
+#include "keyfleet/common/scenario_truth.hpp"
+
+namespace keyfleet::agent {
+namespace {
+
+namespace fs = std::filesystem;
+
+class ScenarioSource final : public FrameSource {
+ public:
+  ScenarioSource(const SourceConfig& config, Logger logger)
+      : config_(config), logger_(std::move(logger)) {
+    scenario::Scenario scenario;
+    try {
+      scenario = scenario::read_scenario(config.path);
+    } catch (const std::exception& e) {
+      throw StartupError(std::string("source.path: ") + e.what());
+    }
+    const auto drone = std::find_if(scenario.drones.begin(), scenario.drones.end(),
+                                    [&](const auto& d) { return d.robot_id == config.drone; });
+    if (drone == scenario.drones.end()) {
+      std::string known;
+      for (const auto& d : scenario.drones) known += (known.empty() ? "" : ", ") + d.robot_id;
+      throw StartupError("source.drone: scenario " + config.path + " has no drone '" +
+                         config.drone + "' (it has " + known + ")");
+    }
+    folder_ = fs::path(config.path) / drone->folder;
+    fps_ = drone->fps;
+    try {
+      truth_ = scenario::read_frame_truth(folder_.string());
+    } catch (const std::exception& e) {
+      throw StartupError(std::string("source.path: ") + e.what());
+    }
+  }
+
+  std::optional<Frame> next() override {
+    while (position_ < truth_.size()) {
+      if (config_.max_frames && position_ >= config_.max_frames) return std::nullopt;
+      const auto& truth = truth_[position_++];
+      cv::Mat image = cv::imread((folder_ / truth.image).string(), cv::IMREAD_COLOR);
+      if (image.empty()) {
+        logger_->error("skipping unreadable scenario frame {}", (folder_ / truth.image).string());
+        continue;
+      }
+      return Frame{truth.index, truth.timestamp_ns, image, truth.camera_to_world};
+    }
+    return std::nullopt;
+  }
+
+  double fps() const override { return fps_; }
+  std::string describe() const override {
+    return "scenario " + config_.path + " drone " + config_.drone + " (" +
+           std::to_string(truth_.size()) + " frames)";
+  }
+
+ private:
+  SourceConfig config_;
+  Logger logger_;
+  fs::path folder_;
+  double fps_ = 30;
+  std::vector<scenario::FrameTruth> truth_;
+  std::size_t position_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<FrameSource> make_scenario_source(const SourceConfig& config, Logger logger) {
+  return std::make_unique<ScenarioSource>(config, std::move(logger));
+}
+
+}  // namespace keyfleet::agent
