@@ -433,10 +433,11 @@ void validate(const StationConfig&, const std::string&) {}
 
 void validate(const ScenarioConfig& c, const std::string& origin) {
   if (c.street.building_min_width_m > c.street.building_max_width_m)
-    throw ConfigError(origin + ": street.building_min_width_m: must not exceed "
-                               "building_max_width_m");
+    throw ConfigError(origin +
+                      ": street.building_min_width_m: must not exceed "
+                      "building_max_width_m");
   const double flight_m = c.drones.start_m + (c.drones.speed_mps + c.drones.speed_jitter_mps) *
-                                                  static_cast<double>(c.frames_per_drone) / c.fps;
+                                                 static_cast<double>(c.frames_per_drone) / c.fps;
   if (flight_m > c.street.length_m)
     throw ConfigError(origin + ": drones.speed_mps: flights of " +
                       std::to_string(static_cast<int>(flight_m)) +
@@ -445,8 +446,7 @@ void validate(const ScenarioConfig& c, const std::string& origin) {
                       "): lower the speed or frames_per_drone, or lengthen the street");
   for (const auto& folder : c.textures.photo_folders)
     if (!std::filesystem::is_directory(folder))
-      throw ConfigError(origin + ": textures.photo_folders: '" + folder +
-                        "' is not a folder");
+      throw ConfigError(origin + ": textures.photo_folders: '" + folder + "' is not a folder");
   if (!c.textures.word_list.empty() && !std::filesystem::is_regular_file(c.textures.word_list))
     throw ConfigError(origin + ": textures.word_list: '" + c.textures.word_list +
                       "' does not exist");

@@ -44,7 +44,8 @@ WordInView word_from(const json& j) {
   w.sign_id = j.at("sign");
   w.text = j.at("text");
   w.legible = j.at("legible");
-  for (std::size_t i = 0; i < 4; ++i) w.quad[i] = {j.at("quad").at(i).at(0), j.at("quad").at(i).at(1)};
+  for (std::size_t i = 0; i < 4; ++i)
+    w.quad[i] = {j.at("quad").at(i).at(0), j.at("quad").at(i).at(1)};
   const auto& box = j.at("box");
   w.box_x0 = box.at(0), w.box_y0 = box.at(1), w.box_x1 = box.at(2), w.box_y1 = box.at(3);
   w.visibility = visibility_from(j.at("visibility"));

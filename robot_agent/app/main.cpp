@@ -7,6 +7,7 @@
 #include "keyfleet/agent/agent_runner.hpp"
 #include "keyfleet/common/config_error.hpp"
 #include "keyfleet/common/dds_transport.hpp"
+#include "keyfleet/common/process_tuning.hpp"
 
 namespace {
 
@@ -71,6 +72,7 @@ int run(const Options& options) {
 
 int main(int argc, char** argv) {
   keyfleet::block_termination_signals();
+  keyfleet::keep_image_buffers_in_heap();
   Options options;
   CLI::App app{"keyfleet robot agent: selects keyframes from a camera stream and publishes them"};
   app.add_option("-c,--config", options.config_path, "agent YAML config")

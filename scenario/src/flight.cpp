@@ -27,7 +27,8 @@ Flight::Flight(const DroneFlightConfig& c, int day, std::uint64_t scenario_seed,
   const double day_lateral = uniform(day_rng, -1, 1) * c.lateral_jitter_m;
   speed_ = c.speed_mps + uniform(rng, -1, 1) * c.speed_jitter_mps;
   start_x_ = c.start_m + uniform(rng, 0, 1.0);
-  altitude_ = std::max(0.5, c.altitude_m + day_altitude + uniform(rng, -0.3, 0.3) * c.altitude_jitter_m);
+  altitude_ =
+      std::max(0.5, c.altitude_m + day_altitude + uniform(rng, -0.3, 0.3) * c.altitude_jitter_m);
   lateral_ = c.lateral_offset_m + day_lateral + uniform(rng, -0.3, 0.3) * c.lateral_jitter_m;
   yaw_rad_ = radians(c.view_yaw_deg + uniform(rng, -5, 5));
   pitch_rad_ = radians(c.pitch_deg + uniform(rng, -3, 3));
@@ -35,8 +36,8 @@ Flight::Flight(const DroneFlightConfig& c, int day, std::uint64_t scenario_seed,
   auto waves = [&](std::vector<Wave>& out, int n, double amplitude_deg, double f_low,
                    double f_high) {
     for (int i = 0; i < n; ++i)
-      out.push_back({radians(amplitude_deg) / n, uniform(rng, f_low, f_high),
-                     uniform(rng, 0, 2 * kPi)});
+      out.push_back(
+          {radians(amplitude_deg) / n, uniform(rng, f_low, f_high), uniform(rng, 0, 2 * kPi)});
   };
   waves(heading_, 3, c.heading_jitter_deg, 0.03, 0.2);
   waves(shake_yaw_, 3, c.shake_deg, 4, 14);

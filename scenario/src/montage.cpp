@@ -27,9 +27,8 @@ cv::Mat scenario_montage(const std::string& scenario_dir, const MontageOptions& 
   const Scenario scenario = read_scenario(scenario_dir);
   std::vector<cv::Mat> rows;
   for (const auto& drone : scenario.drones) {
-    if (!options.drones.empty() &&
-        std::find(options.drones.begin(), options.drones.end(), drone.robot_id) ==
-            options.drones.end())
+    if (!options.drones.empty() && std::find(options.drones.begin(), options.drones.end(),
+                                             drone.robot_id) == options.drones.end())
       continue;
     const fs::path folder = fs::path(scenario_dir) / drone.folder;
     const auto truth = read_frame_truth(folder.string());
@@ -50,8 +49,8 @@ cv::Mat scenario_montage(const std::string& scenario_dir, const MontageOptions& 
         }
       const double scale = double(options.tile_width) / image.cols;
       cv::resize(image, image, {}, scale, scale, cv::INTER_AREA);
-      const std::string label = drone.robot_id + " day " + std::to_string(drone.day) +
-                                " frame " + std::to_string(index);
+      const std::string label =
+          drone.robot_id + " day " + std::to_string(drone.day) + " frame " + std::to_string(index);
       cv::putText(image, label, {6, 18}, cv::FONT_HERSHEY_SIMPLEX, 0.5, {0, 0, 0}, 3, cv::LINE_AA);
       cv::putText(image, label, {6, 18}, cv::FONT_HERSHEY_SIMPLEX, 0.5, {255, 255, 255}, 1,
                   cv::LINE_AA);
@@ -63,9 +62,10 @@ cv::Mat scenario_montage(const std::string& scenario_dir, const MontageOptions& 
     rows.push_back(row);
   }
   if (rows.empty()) throw std::runtime_error(scenario_dir + ": no frames matched the montage");
-  const int width = std::max_element(rows.begin(), rows.end(), [](const cv::Mat& a, const cv::Mat& b) {
-                      return a.cols < b.cols;
-                    })->cols;
+  const int width =
+      std::max_element(rows.begin(), rows.end(), [](const cv::Mat& a, const cv::Mat& b) {
+        return a.cols < b.cols;
+      })->cols;
   for (auto& row : rows)
     if (row.cols < width)
       cv::copyMakeBorder(row, row, 0, 0, 0, width - row.cols, cv::BORDER_CONSTANT, {0, 0, 0});

@@ -24,13 +24,6 @@ std::vector<Eigen::Vector3d> clip_near(const std::vector<Eigen::Vector3d>& polyg
 
 PlaneRenderer::PlaneRenderer(const CameraModel& camera) : camera_(camera) {
   k_ << camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1;
-  grid_x_.create(camera.height, camera.width, CV_32F);
-  grid_y_.create(camera.height, camera.width, CV_32F);
-  for (int y = 0; y < camera.height; ++y)
-    for (int x = 0; x < camera.width; ++x) {
-      grid_x_.at<float>(y, x) = float(x);
-      grid_y_.at<float>(y, x) = float(y);
-    }
 }
 
 bool PlaneRenderer::project(const CameraPose& pose, const Eigen::Vector3d& point,
@@ -50,8 +43,8 @@ RenderedView PlaneRenderer::render(const StreetWorld& world, const CameraPose& p
   const cv::Scalar& sky_light = lighting.sky;
   for (int y = 0; y < camera_.height; ++y) {
     const float f = 0.85f + 0.15f * float(y) / float(camera_.height);
-    view.radiance.row(y).setTo(cv::Scalar(250 * f * sky_light[0], 215 * f * sky_light[1],
-                                          175 * f * sky_light[2]));
+    view.radiance.row(y).setTo(
+        cv::Scalar(250 * f * sky_light[0], 215 * f * sky_light[1], 175 * f * sky_light[2]));
   }
   view.plane_id = cv::Mat(camera_.height, camera_.width, CV_32SC1, cv::Scalar(-1));
   view.text_mask = cv::Mat::zeros(camera_.height, camera_.width, CV_8UC1);
@@ -86,15 +79,14 @@ void PlaneRenderer::draw_plane(const TexturedPlane& plane, const CameraPose& pos
   const double d = normal.dot(pose.rotation_cw * plane.origin + pose.translation_cw);
   if (std::abs(d) < 1e-9) return;  // seen edge-on
   const double a = normal.x() / (camera_.fx * d), b = normal.y() / (camera_.fy * d);
-  const double c = (normal.z() - normal.x() * camera_.cx / camera_.fx -
-                    normal.y() * camera_.cy / camera_.fy) / d;
-  cv::Mat inv = grid_x_(roi) * a + grid_y_(roi) * b + c;
+  const double c =
+      (normal.z() - normal.x() * camera_.cx / camera_.fx - normal.y() * camera_.cy / camera_.fy) /
+      d;
 
   cv::Mat inside = cv::Mat::zeros(roi.size(), CV_8UC1);
   std::vector<cv::Point> local;
   for (const auto& p : outline) local.emplace_back(p.x - roi.x, p.y - roi.y);
   cv::fillConvexPoly(inside, local, 255);
-  cv::Mat wins = inside & (inv > inverse_depth(roi));
 
   // Texture pixel -> world -> camera -> image, shifted into the region.
   Eigen::Matrix<double, 3, 4> projection;
@@ -111,28 +103,55 @@ void PlaneRenderer::draw_plane(const TexturedPlane& plane, const CameraPose& pos
   for (int r = 0; r < 3; ++r)
     for (int col = 0; col < 3; ++col) homography.at<double>(r, col) = h(r, col);
 
-  if (!plane.alpha.empty()) {
+  if (!plane.alpha.empty()) {  // see-through parts never win
     cv::Mat alpha;
     cv::warpPerspective(plane.alpha, alpha, homography, roi.size(), cv::INTER_NEAREST,
                         cv::BORDER_CONSTANT, 0);
-    wins &= alpha > 127;
+    inside &= alpha > 127;
   }
-  if (cv::countNonZero(wins) == 0) return;
+
+  // One pass: depth test inside the outline, z-buffer and plane id updated where it wins.
+  cv::Mat wins(roi.size(), CV_8UC1);
+  bool any = false;
+  for (int y = 0; y < roi.height; ++y) {
+    const std::uint8_t* in = inside.ptr<std::uint8_t>(y);
+    float* z = inverse_depth.ptr<float>(roi.y + y) + roi.x;
+    int* id = view.plane_id.ptr<int>(roi.y + y) + roi.x;
+    std::uint8_t* win = wins.ptr<std::uint8_t>(y);
+    const double row = b * (roi.y + y) + c;
+    for (int x = 0; x < roi.width; ++x) {
+      const float inv = float(a * (roi.x + x) + row);
+      const bool nearer = in[x] && inv > z[x];
+      win[x] = nearer ? 255 : 0;
+      if (nearer) {
+        z[x] = inv;
+        id[x] = plane.id;
+        any = true;
+      }
+    }
+  }
+  if (!any) return;
+
   cv::Mat colour;
   cv::warpPerspective(plane.texture, colour, homography, roi.size(), cv::INTER_LINEAR,
                       cv::BORDER_REPLICATE);
-  cv::Mat radiance;
-  colour.convertTo(radiance, CV_32FC3);
-  cv::multiply(radiance, light, radiance);
-  radiance.copyTo(view.radiance(roi), wins);
-  inv.copyTo(inverse_depth(roi), wins);
-  view.plane_id(roi).setTo(plane.id, wins);
-  cv::Mat text = cv::Mat::zeros(roi.size(), CV_8UC1);
-  if (!plane.text_mask.empty())
+  const float lb = float(light[0]), lg = float(light[1]), lr = float(light[2]);
+  for (int y = 0; y < roi.height; ++y) {
+    const std::uint8_t* win = wins.ptr<std::uint8_t>(y);
+    const cv::Vec3b* src = colour.ptr<cv::Vec3b>(y);
+    cv::Vec3f* dst = view.radiance.ptr<cv::Vec3f>(roi.y + y) + roi.x;
+    for (int x = 0; x < roi.width; ++x)
+      if (win[x]) dst[x] = {src[x][0] * lb, src[x][1] * lg, src[x][2] * lr};
+  }
+  if (plane.text_mask.empty()) {
+    view.text_mask(roi).setTo(0, wins);
+  } else {
+    cv::Mat text;
     cv::warpPerspective(plane.text_mask, text, homography, roi.size(), cv::INTER_LINEAR,
                         cv::BORDER_CONSTANT, 0);
-  text = text > 127;
-  text.copyTo(view.text_mask(roi), wins);
+    cv::Mat on_text = text > 127;
+    on_text.copyTo(view.text_mask(roi), wins);
+  }
 }
 
 }  // namespace keyfleet::scenario

@@ -28,7 +28,8 @@ constexpr double kMinVisiblePixels = 12;
 
 std::string frame_name(std::uint64_t index, const std::string& ext) {
   char name[32];
-  std::snprintf(name, sizeof name, "%06llu.%s", static_cast<unsigned long long>(index), ext.c_str());
+  std::snprintf(name, sizeof name, "%06llu.%s", static_cast<unsigned long long>(index),
+                ext.c_str());
   return name;
 }
 
@@ -114,7 +115,8 @@ void write_drone(const ScenarioConfig& config, const StreetWorld& world, const D
     tum << t << ' ' << p.tx << ' ' << p.ty << ' ' << p.tz << ' ' << p.qx << ' ' << p.qy << ' '
         << p.qz << ' ' << p.qw << '\n';
   }
-  if (!truth || !tum) throw std::runtime_error("cannot write the truth files in " + folder.string());
+  if (!truth || !tum)
+    throw std::runtime_error("cannot write the truth files in " + folder.string());
 }
 
 }  // namespace
@@ -133,9 +135,10 @@ CameraModel camera_model(const ScenarioConfig& config) {
 std::vector<WordInView> words_in_view(const StreetWorld& world, const PlaneRenderer& renderer,
                                       const CameraPose& pose, const cv::Mat& plane_id) {
   const cv::Rect frame(0, 0, plane_id.cols, plane_id.rows);
-  const std::vector<cv::Point2f> frame_corners = {
-      {0, 0}, {float(frame.width), 0}, {float(frame.width), float(frame.height)},
-      {0, float(frame.height)}};
+  const std::vector<cv::Point2f> frame_corners = {{0, 0},
+                                                  {float(frame.width), 0},
+                                                  {float(frame.width), float(frame.height)},
+                                                  {0, float(frame.height)}};
   std::vector<WordInView> words;
   for (const auto& placed : world.words) {
     std::vector<cv::Point2f> quad;
@@ -157,8 +160,7 @@ std::vector<WordInView> words_in_view(const StreetWorld& world, const PlaneRende
     std::vector<cv::Point> local;
     for (const auto& p : quad) local.emplace_back(cvRound(p.x) - box.x, cvRound(p.y) - box.y);
     cv::fillConvexPoly(mask, local, 255);
-    const double visible =
-        cv::countNonZero(mask & (plane_id(box) == placed.plane_id));
+    const double visible = cv::countNonZero(mask & (plane_id(box) == placed.plane_id));
     if (visible < kMinVisiblePixels) continue;
     WordInView word;
     word.sign_id = placed.truth.id;
@@ -219,8 +221,9 @@ GenerationSummary generate_scenario(const ScenarioConfig& config, const std::str
   // Each drone depends only on the world and its own seed: the order of work is free.
   const int previous_cv_threads = cv::getNumThreads();
   cv::setNumThreads(1);
-  const unsigned workers = std::max(1u, std::min<unsigned>(
-      threads ? threads : std::thread::hardware_concurrency(), unsigned(config.drones.count)));
+  const unsigned workers =
+      std::max(1u, std::min<unsigned>(threads ? threads : std::thread::hardware_concurrency(),
+                                      unsigned(config.drones.count)));
   std::atomic<int> next{0};
   std::mutex failure_mutex;
   std::string failure;
@@ -289,8 +292,11 @@ GenerationSummary generate_training_set(const ScenarioConfig& config, const std:
     AppliedEffects applied;
     const double blur = unit(rng) < 0.6 ? unit(rng) * 2 : unit(rng) * 12;
     const cv::Mat image = effects.apply(rendered.radiance, blur, unit(rng) * 180, applied);
-    save_image(root / "images" / frame_name(i, "jpg"), image,
-               [&] { ScenarioConfig c = config; c.image_format = "jpg"; return c; }());
+    save_image(root / "images" / frame_name(i, "jpg"), image, [&] {
+      ScenarioConfig c = config;
+      c.image_format = "jpg";
+      return c;
+    }());
     cv::imwrite((root / "masks" / frame_name(i, "png")).string(), rendered.text_mask);
   }
   summary.frames = count;

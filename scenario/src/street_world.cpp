@@ -100,8 +100,7 @@ struct SignImage {
   cv::Rect word_box;  // in texture pixels
 };
 
-SignImage paint_sign(const std::string& word, const TextureLibrary& library,
-                     std::mt19937_64& rng) {
+SignImage paint_sign(const std::string& word, const TextureLibrary& library, std::mt19937_64& rng) {
   auto& font = library.font(std::size_t(uniform_int(rng, 0, int(library.font_count()) - 1)));
   const int text_height = uniform_int(rng, 56, 96);
   int baseline = 0;
@@ -135,7 +134,7 @@ cv::Mat ground_texture(double length_m, double width_m, std::mt19937_64& rng, in
   cv::Mat tex(rows, cols, CV_8UC3, cv::Scalar(80, 82, 86));
   add_grain(tex, rng, 12);
   const int kerb = int(2.5 * px);
-  tex.rowRange(0, kerb).setTo(cv::Scalar(150, 150, 155));        // pavements
+  tex.rowRange(0, kerb).setTo(cv::Scalar(150, 150, 155));  // pavements
   tex.rowRange(rows - kerb, rows).setTo(cv::Scalar(150, 150, 155));
   for (int x = 0; x < cols; x += int(1.2 * px))  // paving slabs
     for (int r : {0, rows - kerb}) cv::line(tex, {x, r}, {x, r + kerb}, {110, 110, 115}, 2);
@@ -190,8 +189,7 @@ Eigen::Vector3d TexturedPlane::at(double s, double t) const {
 }
 
 std::array<Eigen::Vector3d, 4> TexturedPlane::corners() const {
-  return {origin + v * height_m, origin + u * width_m + v * height_m, origin + u * width_m,
-          origin};
+  return {origin + v * height_m, origin + u * width_m + v * height_m, origin + u * width_m, origin};
 }
 
 int StreetWorld::place_of(double x) const { return int(std::floor(x / place_length_m)); }

@@ -19,15 +19,15 @@ constexpr std::size_t kMaxFonts = 24;
 constexpr int kMinPhotoWidth = 320;  // smaller images are crops, not facades
 
 const std::vector<std::string> kShopWords = {
-    "HOTEL",   "PHARMACY", "BAKERY",  "CAFE",     "BOOKS",   "MARKET",  "BANK",    "PIZZA",
-    "FLOWERS", "SHOES",    "MUSEUM",  "TAXI",     "GARAGE",  "CINEMA",  "TOYS",    "DELI",
-    "BAR",     "SUSHI",    "OPTICS",  "DENTIST",  "FASHION", "JEWELRY", "BUTCHER", "GROCERY",
-    "LAUNDRY", "BARBER",   "TAILOR",  "KEBAB",    "NOODLES", "BISTRO",  "PUB",     "TEA",
-    "SPORTS",  "MUSIC",    "GIFTS",   "TICKETS",  "POST",    "LIBRARY", "CLINIC",  "HOSTEL",
-    "SALON",   "BURGER",   "RAMEN",   "TACOS",    "WINE",    "CHEESE",  "COFFEE",  "DONUTS",
-    "CAMERA",  "MOBILE",   "REPAIR",  "PRINT",    "OUTLET",  "BOUTIQUE", "GALLERY", "THEATRE",
-    "PARKING", "EXIT",     "OPEN",    "SALE",     "ICE CREAM", "FRUIT", "FISH",    "BEAUTY",
-    "HARDWARE", "KIOSK",   "LOTTERY", "ANTIQUES", "BICYCLES", "PHOTO", "TRAVEL",  "INSURANCE"};
+    "HOTEL",    "PHARMACY", "BAKERY",  "CAFE",     "BOOKS",     "MARKET",   "BANK",    "PIZZA",
+    "FLOWERS",  "SHOES",    "MUSEUM",  "TAXI",     "GARAGE",    "CINEMA",   "TOYS",    "DELI",
+    "BAR",      "SUSHI",    "OPTICS",  "DENTIST",  "FASHION",   "JEWELRY",  "BUTCHER", "GROCERY",
+    "LAUNDRY",  "BARBER",   "TAILOR",  "KEBAB",    "NOODLES",   "BISTRO",   "PUB",     "TEA",
+    "SPORTS",   "MUSIC",    "GIFTS",   "TICKETS",  "POST",      "LIBRARY",  "CLINIC",  "HOSTEL",
+    "SALON",    "BURGER",   "RAMEN",   "TACOS",    "WINE",      "CHEESE",   "COFFEE",  "DONUTS",
+    "CAMERA",   "MOBILE",   "REPAIR",  "PRINT",    "OUTLET",    "BOUTIQUE", "GALLERY", "THEATRE",
+    "PARKING",  "EXIT",     "OPEN",    "SALE",     "ICE CREAM", "FRUIT",    "FISH",    "BEAUTY",
+    "HARDWARE", "KIOSK",    "LOTTERY", "ANTIQUES", "BICYCLES",  "PHOTO",    "TRAVEL",  "INSURANCE"};
 
 bool is_symbol_font(const std::string& name) {
   for (const char* symbolic : {"Symbol", "D050000L", "Dingbat", "dingbat"})
@@ -59,8 +59,8 @@ std::vector<fs::path> sorted_files(const std::string& folder, const std::set<std
 // ICDAR keeps ground truth in gt/gt_<image stem>.txt beside or above the image folder.
 std::string ground_truth_for(const fs::path& image) {
   const std::string name = "gt_" + image.stem().string() + ".txt";
-  for (const fs::path& candidate : {image.parent_path() / "gt" / name,
-                                    image.parent_path().parent_path() / "gt" / name})
+  for (const fs::path& candidate :
+       {image.parent_path() / "gt" / name, image.parent_path().parent_path() / "gt" / name})
     if (fs::exists(candidate)) return candidate.string();
   return {};
 }

@@ -5,6 +5,7 @@
 #include <regex>
 #include <sstream>
 
+#include "keyfleet/common/sqlite.hpp"
 #include "support/fleet_fixture.hpp"
 
 namespace keyfleet::testing {
@@ -20,7 +21,7 @@ class MissionCommand : public FleetFixture {
     const auto log = run_dir_ / "mission.out";
     mission::ChildProcess cli("keyfleet", {KEYFLEET_CLI_BIN, "mission", config.string()},
                               log.string());
-    const auto status = cli.wait_for(seconds(120));
+    const auto status = cli.wait_for(seconds(180));
     EXPECT_TRUE(status.has_value()) << "keyfleet mission did not finish";
     std::ifstream in(log);
     std::stringstream text;
@@ -62,6 +63,27 @@ TEST_F(MissionCommand, FailingAgentIsNamedWithItsReason) {
   EXPECT_NE(output.find("drone_0 (pid"), std::string::npos) << output;
   EXPECT_NE(output.find("exited with code 1"), std::string::npos) << output;
   EXPECT_NE(output.find("/nonexistent/frames"), std::string::npos) << output;
+}
+
+TEST_F(MissionCommand, GeneratesAScenarioAndReplaysEachDroneWithItsPoses) {
+  std::ofstream(run_dir_ / "scenario.yaml")
+      << "name: tiny\nframes_per_drone: 30\nwidth: 320\nheight: 240\n"
+         "street: {length_m: 40}\ndrones: {count: 2}\n";
+  std::ostringstream y;
+  y << "name: scen\nscenario: scenario.yaml\nrun_root: " << (run_dir_ / "runs").string()
+    << "\nagent:\n  source: {realtime: false}\n  selector: {stride: 10}\n"
+       "  dds: {lease_duration_s: 2, announcement_period_s: 0.5}\n";
+  const auto [status, output] = run_mission(y.str());
+  ASSERT_TRUE(status.ok()) << output;
+  EXPECT_TRUE(std::regex_search(output, std::regex(R"(drone_0\s+3\s+0\s)"))) << output;
+  EXPECT_TRUE(std::regex_search(output, std::regex(R"(drone_1\s+3\s+0\s)"))) << output;
+  std::smatch run_folder;
+  ASSERT_TRUE(std::regex_search(output, run_folder, std::regex(R"(run folder: (\S+))")));
+  const auto db = std::filesystem::path(run_folder[1].str()) / "station" / "station.sqlite";
+  SqliteDb store(db.string(), SqliteDb::Mode::kReadOnly);
+  auto q = store.prepare("SELECT COUNT(*) FROM keyframes WHERE pose_tx IS NOT NULL");
+  ASSERT_TRUE(q.step());
+  EXPECT_EQ(q.int64(0), 6) << "keyframes from a scenario carry the true camera pose";
 }
 
 }  // namespace

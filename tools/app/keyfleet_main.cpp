@@ -5,6 +5,7 @@
 #include <iostream>
 
 #include "keyfleet/common/config.hpp"
+#include "keyfleet/common/process_tuning.hpp"
 #include "keyfleet/mission/mission_runner.hpp"
 #include "keyfleet/scenario/montage.hpp"
 #include "keyfleet/scenario/scenario_generator.hpp"
@@ -75,6 +76,7 @@ int run_scenario_montage(const std::string& dir, const std::string& out,
 
 int main(int argc, char** argv) {
   keyfleet::block_termination_signals();
+  keyfleet::keep_image_buffers_in_heap();
   CLI::App app{"keyfleet: keyframe sharing for robot fleets over weak links"};
   app.require_subcommand(1);
 
@@ -100,16 +102,21 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   generate->add_option("--out", out, "output folder (must not hold a scenario)")->required();
   generate->add_option("--threads", threads, "drones rendered at once (0 = one per core)");
-  auto* training = scenario->add_subcommand("training", "write image + text-mask pairs for MiniNet");
+  auto* training =
+      scenario->add_subcommand("training", "write image + text-mask pairs for MiniNet");
   std::uint64_t count = 1000;
-  training->add_option("config", scenario_config, "scenario YAML")->required()->check(CLI::ExistingFile);
+  training->add_option("config", scenario_config, "scenario YAML")
+      ->required()
+      ->check(CLI::ExistingFile);
   training->add_option("--out", out, "output folder")->required();
   training->add_option("--count", count, "number of pairs")->check(CLI::Range(1, 10000000));
 
   auto* montage = scenario->add_subcommand("montage", "a picture of frames from a scenario");
   std::string scenario_dir;
   scenario::MontageOptions montage_options;
-  montage->add_option("dir", scenario_dir, "scenario folder")->required()->check(CLI::ExistingDirectory);
+  montage->add_option("dir", scenario_dir, "scenario folder")
+      ->required()
+      ->check(CLI::ExistingDirectory);
   montage->add_option("--out", out, "image file to write (.jpg/.png)")->required();
   montage->add_option("--drones", montage_options.drones, "drones to show (default: all)");
   montage->add_option("--frames", montage_options.frames, "frame indices (default: five)");

@@ -13,9 +13,9 @@
 
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/scenario_truth.hpp"
-#include "keyfleet/scenario/scenario_generator.hpp"
 #include "keyfleet/common/sqlite.hpp"
 #include "keyfleet/mission/child_process.hpp"
+#include "keyfleet/scenario/scenario_generator.hpp"
 
 namespace keyfleet::mission {
 namespace {
@@ -99,8 +99,7 @@ MissionResult MissionRunner::run(const StopToken& stop) {
   write_text(run_dir / "config" / "station.yaml", to_yaml(config_.station));
   write_text(run_dir / "config" / "mission.yaml", to_yaml(config_));
   progress_ << "mission '" << config_.name << "': DDS domain " << domain << ", partition "
-            << partition
-            << "\nrun folder: " << run_dir.string() << "\n"
+            << partition << "\nrun folder: " << run_dir.string() << "\n"
             << std::flush;
 
   // A scenario decides the drones: one agent per scenario drone, replaying its frames.
@@ -109,8 +108,8 @@ MissionResult MissionRunner::run(const StopToken& stop) {
   if (!config_.scenario.empty()) {
     scenario_dir = (run_dir / "scenario").string();
     progress_ << "generating scenario " << config_.scenario << " ...\n" << std::flush;
-    const auto summary = scenario::generate_scenario(load_scenario_config(config_.scenario),
-                                                     scenario_dir, logger_);
+    const auto summary =
+        scenario::generate_scenario(load_scenario_config(config_.scenario), scenario_dir, logger_);
     progress_ << "scenario: " << summary.frames << " frames in " << summary.seconds << " s\n";
   }
   if (!scenario_dir.empty()) {

@@ -36,9 +36,9 @@ struct Point3 {
 };
 
 struct WordInView {
-  int sign_id = 0;     // index into Scenario::signs
+  int sign_id = 0;  // index into Scenario::signs
   std::string text;
-  bool legible = true;  // false for words carried over as illegible ('###') from photos
+  bool legible = true;         // false for words carried over as illegible ('###') from photos
   std::array<Point2, 4> quad;  // pixel corners: top-left, top-right, bottom-right, bottom-left
   double box_x0 = 0, box_y0 = 0, box_x1 = 0, box_y1 = 0;  // axis-aligned, clipped to frame
   WordVisibility visibility = WordVisibility::kFull;
@@ -54,11 +54,11 @@ struct FrameTruth {
   double motion_blur_px = 0;         // length of the linear blur kernel applied
   double motion_blur_angle_deg = 0;  // its direction in the image (0 = +x)
   bool shake_burst = false;
-  double exposure_gain = 1;          // final gain applied to the scene radiance
-  std::string exposure_event;        // "", "over" or "under"
-  double mean_level = 0;             // mean grey level of the saved frame
-  int place_id = 0;                  // of the street point the optical axis meets
-  double street_position_m = 0;      // x of that point
+  double exposure_gain = 1;      // final gain applied to the scene radiance
+  std::string exposure_event;    // "", "over" or "under"
+  double mean_level = 0;         // mean grey level of the saved frame
+  int place_id = 0;              // of the street point the optical axis meets
+  double street_position_m = 0;  // x of that point
   std::vector<WordInView> words;
 };
 
@@ -72,7 +72,7 @@ struct SignTruth {
   std::string text;
   bool legible = true;
   int place_id = 0;
-  std::string side;                   // "left" | "right"
+  std::string side;                    // "left" | "right"
   std::array<Point3, 4> word_corners;  // the word's box in the world
 };
 

@@ -30,9 +30,9 @@ class CameraEffects {
   CameraEffectsConfig config_;
   double frame_period_s_;
   std::mt19937_64 rng_;
-  cv::RNG noise_rng_;
-  cv::Mat vignette_;  // CV_32FC3 factors
-  double gain_ = -1;  // auto-exposure state; < 0 until the first frame
+  cv::Mat noise_bank_;  // CV_32FC3 standard normal, larger than a frame; cut at random offsets
+  cv::Mat vignette_;    // CV_32FC3 factors
+  double gain_ = -1;    // auto-exposure state; < 0 until the first frame
   double event_left_s_ = 0;
   std::string event_;
 };

@@ -7,8 +7,8 @@
 namespace keyfleet::scenario {
 
 struct MontageOptions {
-  std::vector<std::string> drones;     // empty = all
-  std::vector<std::uint64_t> frames;   // empty = five spread over the flight
+  std::vector<std::string> drones;    // empty = all
+  std::vector<std::uint64_t> frames;  // empty = five spread over the flight
   int tile_width = 320;
   bool draw_words = false;  // outline ground-truth words: green full, yellow cut, red occluded
 };

@@ -39,7 +39,6 @@ class PlaneRenderer {
                   RenderedView& view, cv::Mat& inverse_depth) const;
   CameraModel camera_;
   Eigen::Matrix3d k_;
-  cv::Mat grid_x_, grid_y_;  // pixel coordinates, CV_32F
 };
 
 }  // namespace keyfleet::scenario
