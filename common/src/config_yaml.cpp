@@ -36,7 +36,17 @@ struct EnumNames<SourceConfig::Kind> {
 template <>
 struct EnumNames<SelectorConfig::Strategy> {
   static constexpr std::pair<SelectorConfig::Strategy, const char*> kAll[] = {
-      {SelectorConfig::Strategy::kStride, "stride"}};
+      {SelectorConfig::Strategy::kVslam, "vslam"},
+      {SelectorConfig::Strategy::kQuality, "quality"},
+      {SelectorConfig::Strategy::kSemantic, "semantic"},
+      {SelectorConfig::Strategy::kFull, "full"}};
+};
+template <>
+struct EnumNames<TriggerConfig::Kind> {
+  static constexpr std::pair<TriggerConfig::Kind, const char*> kAll[] = {
+      {TriggerConfig::Kind::kOrbSlam, "orbslam"},
+      {TriggerConfig::Kind::kStride, "stride"},
+      {TriggerConfig::Kind::kList, "list"}};
 };
 
 template <class E>
@@ -261,9 +271,44 @@ void visit(V& v, SourceConfig& c) {
 }
 
 template <class V>
+void visit(V& v, TriggerConfig& c) {
+  v.field("kind", c.kind);
+  v.field("stride", c.stride, between(1, 100000));
+  v.field("list", c.list);
+  v.field("features", c.features, between(50, 20000));
+  v.field("levels", c.levels, between(1, 16));
+  v.field("scale_factor", c.scale_factor, between(1.05, 2.0));
+  v.field("image_scale", c.image_scale, between(0.1, 1.0));
+  v.field("max_frames", c.max_frames, between(0, 100000));
+  v.field("mapping_busy_frames", c.mapping_busy_frames, between(0, 1000));
+  v.field("ref_ratio", c.ref_ratio, between(0.1, 1.0));
+  v.field("min_inliers", c.min_inliers, between(8, 10000));
+}
+
+template <class V>
+void visit(V& v, QualityConfig& c) {
+  v.field("size", c.size, between(16, 2048));
+  v.field("sharpness_width", c.sharpness_width, between(32, 8192));
+  v.field("sharpness_gate", c.sharpness_gate, between(0.0, 1.0));
+  v.field("edge_contrast", c.edge_contrast, between(0.0, 2000.0));
+  v.field("sharp_ratio", c.sharp_ratio, between(0.0, 4.0));
+}
+
+template <class V>
+void visit(V& v, SemanticConfig& c) {
+  v.field("model", c.model);
+  v.field("border", c.border, between(0.0, 0.45));
+  v.field("threads", c.threads, between(0, 64));
+}
+
+template <class V>
 void visit(V& v, SelectorConfig& c) {
   v.field("strategy", c.strategy);
-  v.field("stride", c.stride, between(1, 100000));
+  v.field("density", c.density, between(1, 1000));
+  v.field("max_window_frames", c.max_window_frames, between(1, 10000));
+  v.section("trigger", c.trigger);
+  v.section("quality", c.quality);
+  v.section("semantic", c.semantic);
 }
 
 template <class V>
@@ -418,6 +463,16 @@ void visit(V& v, ScenarioConfig& c) {
 
 // Cross-field rules that a single key cannot express.
 void validate(const AgentConfig& c, const std::string& origin) {
+  const auto strategy = c.selector.strategy;
+  const bool needs_model = strategy == SelectorConfig::Strategy::kSemantic ||
+                           strategy == SelectorConfig::Strategy::kFull;
+  if (needs_model && c.selector.semantic.model.empty())
+    throw ConfigError(
+        origin + ": selector.semantic.model: required for the " +
+        std::string(strategy == SelectorConfig::Strategy::kFull ? "full" : "semantic") +
+        " strategy");
+  if (c.selector.trigger.kind == TriggerConfig::Kind::kList && c.selector.trigger.list.empty())
+    throw ConfigError(origin + ": selector.trigger.list: required when trigger.kind is list");
   const bool needs_path = c.source.kind != SourceConfig::Kind::kGenerated;
   if (needs_path && c.source.path.empty())
     throw ConfigError(origin + ": source.path: required when source.kind is folder or video");

@@ -48,11 +48,13 @@ int run(const Options& options) {
   if (outbox.pending() > 0)
     logger->info("outbox {} holds {} unacknowledged keyframe(s) from an earlier run", outbox.path(),
                  outbox.pending());
+  StageClock clock;
+  auto selector = agent::make_selector(config.selector, source->fps(), &clock);
   auto link = make_dds_agent_link(config.dds, logger);
-  agent::KeyframeAgent pipeline(config, agent::make_selector(config.selector),
+  agent::KeyframeAgent pipeline(config, std::move(selector),
                                 std::make_unique<JpegCodec>(config.codec.jpeg_quality), outbox,
-                                *link, logger);
-  agent::AgentRunner runner(config, *source, pipeline, *link, logger);
+                                *link, clock, logger);
+  agent::AgentRunner runner(config, *source, pipeline, *link, clock, logger);
 
   switch (runner.run(shutdown.stop)) {
     case agent::AgentOutcome::kDelivered: return 0;

@@ -15,8 +15,13 @@ Clock::duration seconds(double s) {
 }  // namespace
 
 AgentRunner::AgentRunner(const AgentConfig& config, FrameSource& source, KeyframeAgent& agent,
-                         AgentLink& link, Logger logger)
-    : config_(config), source_(source), agent_(agent), link_(link), logger_(std::move(logger)) {}
+                         AgentLink& link, StageClock& clock, Logger logger)
+    : config_(config),
+      source_(source),
+      agent_(agent),
+      link_(link),
+      clock_(clock),
+      logger_(std::move(logger)) {}
 
 void AgentRunner::tick(std::int64_t now_ns, milliseconds ack_wait) {
   agent_.service(now_ns, ack_wait);
@@ -46,7 +51,7 @@ void AgentRunner::stream(const StopToken& stop) {
   while (!stop.requested()) {
     std::optional<Frame> frame;
     {
-      auto scope = agent_.stage_clock().measure("source");
+      auto scope = clock_.measure("source");
       frame = source_.next();
     }
     if (!frame) break;

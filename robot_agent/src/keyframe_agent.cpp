@@ -4,12 +4,13 @@ namespace keyfleet::agent {
 
 KeyframeAgent::KeyframeAgent(const AgentConfig& config, std::unique_ptr<KeyframeSelector> selector,
                              std::unique_ptr<ImageCodec> codec, Outbox& outbox, AgentLink& link,
-                             Logger logger)
+                             StageClock& clock, Logger logger)
     : config_(config),
       selector_(std::move(selector)),
       codec_(std::move(codec)),
       outbox_(outbox),
       link_(link),
+      clock_(clock),
       logger_(std::move(logger)),
       ledger_(config.ledger.baseline_sample_every) {}
 
@@ -27,11 +28,7 @@ Keyframe KeyframeAgent::make_keyframe(const Frame& frame, std::vector<std::uint8
 }
 
 void KeyframeAgent::process(const Frame& frame, std::int64_t now_ns) {
-  SelectorStep step;
-  {
-    auto scope = clock_.measure("select");
-    step = selector_->push(frame);
-  }
+  const SelectorStep step = selector_->push(frame);  // measures its own stages
   // Baselines: what this frame would cost as a sample, measured on the frames sampled
   // for the stream-all baseline and on every V-SLAM keyframe.
   std::optional<std::uint64_t> frame_bytes;

@@ -1,32 +1,200 @@
 #include "keyfleet/agent/keyframe_selector.hpp"
 
-#include <stdexcept>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <numeric>
+
+#include "keyfleet/agent/image_quality.hpp"
 
 namespace keyfleet::agent {
 
-StrideSelector::StrideSelector(int stride) : stride_(static_cast<std::uint64_t>(stride)) {
-  if (stride < 1) throw std::invalid_argument("stride must be >= 1");
+HierarchicalSelector::HierarchicalSelector(const SelectorConfig& config,
+                                           std::unique_ptr<KeyframeTrigger> trigger,
+                                           std::unique_ptr<TextSegmenter> segmenter,
+                                           StageClock* clock)
+    : config_(config),
+      trigger_(std::move(trigger)),
+      segmenter_(std::move(segmenter)),
+      clock_(clock ? clock : &own_clock_) {
+  const bool semantic = config.strategy == SelectorConfig::Strategy::kSemantic ||
+                        config.strategy == SelectorConfig::Strategy::kFull;
+  if (semantic && !segmenter_)
+    throw std::invalid_argument("the semantic strategies need a text segmenter");
 }
 
-SelectorStep StrideSelector::push(const Frame& frame) {
+HierarchicalSelector::Scored HierarchicalSelector::score(const Frame& frame) {
+  Scored s{frame, 0, 0, 0};
+  if (config_.strategy == SelectorConfig::Strategy::kVslam) return s;
+  cv::Mat small, grey;
+  {
+    auto scope = clock_->measure("resize");
+    cv::resize(frame.image, small, {config_.quality.size, config_.quality.size}, 0, 0,
+               cv::INTER_AREA);
+    cv::cvtColor(small, grey, cv::COLOR_BGR2GRAY);
+  }
+  {
+    auto scope = clock_->measure("blur");
+    s.blur = energy_of_laplacian(grey);
+  }
+  {
+    auto scope = clock_->measure("brightness");
+    s.brightness = brightness_score(small);
+  }
+  {
+    auto scope = clock_->measure("sharpness");
+    const double f = double(config_.quality.sharpness_width) / frame.image.cols;
+    cv::Mat sharp_grey;
+    cv::cvtColor(frame.image, sharp_grey, cv::COLOR_BGR2GRAY);
+    if (f < 1) cv::resize(sharp_grey, sharp_grey, {}, f, f, cv::INTER_AREA);
+    s.sharpness =
+        kumar_sharpness(sharp_grey, {config_.quality.edge_contrast, config_.quality.sharp_ratio});
+  }
+  return s;
+}
+
+SelectorStep HierarchicalSelector::push(const Frame& frame) {
   SelectorStep step;
-  if (frame.index % stride_ != 0) return step;
-  step.vslam_keyframe = true;
-  Selection selection;
-  selection.frame = frame;
-  selection.vslam_keyframe_index = frame.index;
-  selection.window_first_frame = frame.index == 0 ? 0 : last_selected_ + 1;
-  selection.window_last_frame = frame.index;
-  last_selected_ = frame.index;
-  step.selected.push_back(std::move(selection));
+  buffer_.push_back(score(frame));
+  {
+    auto scope = clock_->measure("trigger");
+    step.vslam_keyframe = trigger_->is_keyframe(frame);
+  }
+  // A pending window whose future part has arrived is decided now.
+  if (pending_ && frame.index >= pending_->last) {
+    step.selected.push_back(resolve(*pending_));
+    pending_.reset();
+  }
+  if (step.vslam_keyframe && vslam_keyframes_++ % std::uint64_t(config_.density) == 0) {
+    if (pending_) {  // the next keyframe came first: decide with what there is
+      pending_->last = frame.index;
+      step.selected.push_back(resolve(*pending_));
+      pending_.reset();
+    }
+    const std::uint64_t k = frame.index;
+    const std::uint64_t w = last_selected_ ? (k - *last_selected_) / 2 : 0;
+    const std::uint64_t before = (2 * w + 2) / 3, after = w - before;
+    Window window{k, k - std::min(before, k), k + after};
+    if (config_.strategy == SelectorConfig::Strategy::kVslam || after == 0)
+      step.selected.push_back(resolve(window));
+    else
+      pending_ = window;
+  }
+  trim_buffer();
   return step;
 }
 
-std::unique_ptr<KeyframeSelector> make_selector(const SelectorConfig& config) {
-  switch (config.strategy) {
-    case SelectorConfig::Strategy::kStride: return std::make_unique<StrideSelector>(config.stride);
+std::vector<Selection> HierarchicalSelector::finish() {
+  std::vector<Selection> out;
+  if (pending_) {
+    out.push_back(resolve(*pending_));
+    pending_.reset();
   }
-  throw std::invalid_argument("unknown selector strategy");
+  return out;
+}
+
+void HierarchicalSelector::trim_buffer() {
+  const std::size_t keep = std::size_t(config_.max_window_frames);
+  while (buffer_.size() > keep) buffer_.pop_front();
+  // Frames before a pending window are never needed again.
+  if (pending_)
+    while (!buffer_.empty() && buffer_.front().frame.index < pending_->first) buffer_.pop_front();
+}
+
+Selection HierarchicalSelector::resolve(const Window& window) {
+  std::vector<const Scored*> in_window;
+  for (const auto& s : buffer_)
+    if (s.frame.index >= window.first && s.frame.index <= window.last) in_window.push_back(&s);
+  const Scored* keyframe = nullptr;
+  for (const auto* s : in_window)
+    if (s->frame.index == window.keyframe) keyframe = s;
+  if (!keyframe) keyframe = in_window.back();  // clipped by max_window_frames
+
+  Selection selection;
+  selection.vslam_keyframe_index = window.keyframe;
+  selection.window_first_frame = in_window.front()->frame.index;
+  selection.window_last_frame = in_window.back()->frame.index;
+  auto choose = [&](const Scored& s, double quality, double semantic) {
+    selection.frame = s.frame;
+    selection.quality_score = quality;
+    selection.sharpness_score = s.sharpness;
+    selection.semantic_score = semantic;
+    last_selected_ = s.frame.index;
+    return selection;
+  };
+  if (config_.strategy == SelectorConfig::Strategy::kVslam) return choose(*keyframe, 0, 0);
+
+  // Quality: blur x brightness, each normalised by its maximum within the window.
+  double max_blur = 0, max_bright = 0;
+  for (const auto* s : in_window) {
+    max_blur = std::max(max_blur, s->blur);
+    max_bright = std::max(max_bright, s->brightness);
+  }
+  auto quality = [&](const Scored* s) {
+    return (max_blur > 0 ? s->blur / max_blur : 0) *
+           (max_bright > 0 ? s->brightness / max_bright : 0);
+  };
+  std::vector<const Scored*> candidates;
+  for (const auto* s : in_window)
+    if (s->sharpness >= config_.quality.sharpness_gate) candidates.push_back(s);
+  if (candidates.empty()) candidates = in_window;  // nothing sharp: the least bad still goes
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [&](const Scored* a, const Scored* b) { return quality(a) > quality(b); });
+  if (config_.strategy == SelectorConfig::Strategy::kQuality)
+    return choose(*candidates.front(), quality(candidates.front()), 0);
+
+  // Semantic: the text score of a few frames, as one batch.
+  const std::size_t q = std::max<std::size_t>(1, in_window.size() / 3);
+  std::vector<const Scored*> batch;
+  if (config_.strategy == SelectorConfig::Strategy::kFull) {
+    batch.assign(candidates.begin(), candidates.begin() + std::min(q, candidates.size()));
+  } else {
+    for (std::size_t i = 0; i < q; ++i) batch.push_back(in_window[i * in_window.size() / q]);
+  }
+  std::vector<cv::Mat> images;
+  for (const auto* s : batch) images.push_back(s->frame.image);
+  std::vector<cv::Mat> masks;
+  {
+    auto scope = clock_->measure("semantic");
+    masks = segmenter_->segment(images);
+  }
+  std::size_t best = 0;
+  double best_semantic = -1;
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    const double semantic = semantic_score(masks[i], config_.semantic.border);
+    // Strictly better text wins; the batch is in quality order, so ties keep quality.
+    if (semantic > best_semantic) best_semantic = semantic, best = i;
+  }
+  return choose(*batch[best], quality(batch[best]), best_semantic);
+}
+
+std::unique_ptr<KeyframeSelector> make_selector(const SelectorConfig& config, double fps,
+                                                StageClock* clock) {
+  std::unique_ptr<KeyframeTrigger> trigger;
+  const TriggerConfig& t = config.trigger;
+  switch (t.kind) {
+    case TriggerConfig::Kind::kStride: trigger = std::make_unique<StrideTrigger>(t.stride); break;
+    case TriggerConfig::Kind::kList: trigger = std::make_unique<ListTrigger>(t.list, fps); break;
+    case TriggerConfig::Kind::kOrbSlam: {
+      OrbSlamTriggerParams p;
+      p.orb.features = t.features;
+      p.orb.levels = t.levels;
+      p.orb.scale_factor = t.scale_factor;
+      p.image_scale = t.image_scale;
+      p.max_frames = t.max_frames > 0 ? t.max_frames : std::max(1, int(std::lround(fps)));
+      p.mapping_busy_frames = t.mapping_busy_frames;
+      p.ref_ratio = t.ref_ratio;
+      p.min_inliers = t.min_inliers;
+      trigger = std::make_unique<OrbSlamTrigger>(p);
+      break;
+    }
+  }
+  std::unique_ptr<TextSegmenter> segmenter;
+  if (config.strategy == SelectorConfig::Strategy::kSemantic ||
+      config.strategy == SelectorConfig::Strategy::kFull)
+    segmenter = std::make_unique<DnnTextSegmenter>(config.semantic.model, config.semantic.threads);
+  return std::make_unique<HierarchicalSelector>(config, std::move(trigger), std::move(segmenter),
+                                                clock);
 }
 
 }  // namespace keyfleet::agent

@@ -33,7 +33,8 @@ class MissionCommand : public FleetFixture {
     std::ostringstream y;
     y << "name: citest\ndrones: " << drones << "\nrun_root: " << (run_dir_ / "runs").string()
       << "\nagent:\n  source: {kind: generated, realtime: false, max_frames: 40, width: 320, "
-         "height: 240}\n  selector: {stride: 10}\n  dds: {lease_duration_s: 2, "
+         "height: 240}\n  selector: {strategy: vslam, trigger: {kind: stride, stride: 10}}\n  dds: "
+         "{lease_duration_s: 2, "
          "announcement_period_s: 0.5}\n";
     return y.str();
   }
@@ -71,7 +72,8 @@ TEST_F(MissionCommand, GeneratesAScenarioAndReplaysEachDroneWithItsPoses) {
          "street: {length_m: 40}\ndrones: {count: 2}\n";
   std::ostringstream y;
   y << "name: scen\nscenario: scenario.yaml\nrun_root: " << (run_dir_ / "runs").string()
-    << "\nagent:\n  source: {realtime: false}\n  selector: {stride: 10}\n"
+    << "\nagent:\n  source: {realtime: false}\n  selector: {strategy: vslam, trigger: {kind: "
+       "stride, stride: 10}}\n"
        "  dds: {lease_duration_s: 2, announcement_period_s: 0.5}\n";
   const auto [status, output] = run_mission(y.str());
   ASSERT_TRUE(status.ok()) << output;

@@ -32,7 +32,7 @@ TEST_F(StationOutage, KeyframesPublishedWhileStationIsDownArriveOnceAfterRestart
     AgentConfig c = agent_config("drone_" + std::to_string(i));
     c.source.realtime = true;  // 240 frames at 30 fps: 8 s of flight, 40 keyframes
     c.source.max_frames = 240;
-    c.selector.stride = 6;
+    c.selector.trigger.stride = 6;
     c.source.seed = 20 + static_cast<std::uint64_t>(i);
     configs.push_back(c);
   }

@@ -54,7 +54,7 @@ TEST(ConfigDefaults, AgentDocumentWithOnlyMaxFramesKeepsEveryOtherDefault) {
   EXPECT_EQ(parsed.source.kind, defaults.source.kind);
   EXPECT_EQ(parsed.source.fps, defaults.source.fps);
   EXPECT_EQ(parsed.source.width, defaults.source.width);
-  EXPECT_EQ(parsed.selector.stride, defaults.selector.stride);
+  EXPECT_EQ(parsed.selector.trigger.stride, defaults.selector.trigger.stride);
   EXPECT_EQ(parsed.codec.jpeg_quality, defaults.codec.jpeg_quality);
   EXPECT_EQ(parsed.ledger.baseline_sample_every, defaults.ledger.baseline_sample_every);
   EXPECT_EQ(parsed.outbox.path, defaults.outbox.path);
@@ -281,7 +281,7 @@ TEST(ConfigRoundTrip, AgentToYamlParsesBackToTheSameValues) {
   c.source.width = 320;
   c.source.height = 200;
   c.source.seed = 18446744073709551557ULL;  // needs all 64 bits
-  c.selector.stride = 7;
+  c.selector.trigger.stride = 7;
   c.codec.jpeg_quality = 42;
   c.ledger.baseline_sample_every = 3;
   c.outbox.path = "box.sqlite";
@@ -309,7 +309,7 @@ TEST(ConfigRoundTrip, AgentToYamlParsesBackToTheSameValues) {
   EXPECT_EQ(back.source.width, c.source.width);
   EXPECT_EQ(back.source.height, c.source.height);
   EXPECT_EQ(back.source.seed, c.source.seed);
-  EXPECT_EQ(back.selector.stride, c.selector.stride);
+  EXPECT_EQ(back.selector.trigger.stride, c.selector.trigger.stride);
   EXPECT_EQ(back.codec.jpeg_quality, c.codec.jpeg_quality);
   EXPECT_EQ(back.ledger.baseline_sample_every, c.ledger.baseline_sample_every);
   EXPECT_EQ(back.outbox.path, c.outbox.path);

@@ -12,7 +12,7 @@ namespace keyfleet::testing {
 // process, to get the exact JPEG bytes it must have published, by sequence number.
 inline std::vector<std::vector<std::uint8_t>> expected_images(const AgentConfig& config) {
   auto source = agent::make_generated_source(config.source);
-  auto selector = agent::make_selector(config.selector);
+  auto selector = agent::make_selector(config.selector, config.source.fps);
   JpegCodec codec(config.codec.jpeg_quality);
   std::vector<std::vector<std::uint8_t>> images;
   while (auto frame = source->next())

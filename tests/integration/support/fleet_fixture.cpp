@@ -55,7 +55,9 @@ AgentConfig FleetFixture::agent_config(const std::string& robot_id) const {
   c.source.max_frames = 60;
   c.source.width = 320;
   c.source.height = 240;
-  c.selector.stride = 5;
+  c.selector.strategy = SelectorConfig::Strategy::kVslam;
+  c.selector.trigger.kind = TriggerConfig::Kind::kStride;
+  c.selector.trigger.stride = 5;
   c.stats_period_s = 0.5;
   c.wait_for_station_s = 20;
   c.drain_timeout_s = 60;

@@ -38,10 +38,53 @@ struct SourceConfig {
   std::uint64_t seed = 1;  // kGenerated: scene and flight seed
 };
 
+// The V-SLAM keyframe trigger whose keyframes anchor the selection windows.
+struct TriggerConfig {
+  enum class Kind {
+    kOrbSlam,  // ORB-SLAM2's NeedNewKeyFrame on tracked ORB features
+    kStride,   // every `stride` frames
+    kList,     // the timestamps of an ORB-SLAM KeyFrameTrajectory.txt (TUM format)
+  };
+  Kind kind = Kind::kOrbSlam;
+  int stride = 15;
+  std::string list;
+  int features = 1000;  // ORB features per frame
+  int levels = 8;
+  double scale_factor = 1.2;
+  double image_scale = 0.5;     // frames are resized by this before extraction
+  int max_frames = 0;           // ORB-SLAM2 mMaxFrames; 0 = the source's fps
+  int mapping_busy_frames = 2;  // local mapping stays busy this long after a keyframe
+  double ref_ratio = 0.9;       // new keyframe when inliers < ref_ratio * nRef
+  int min_inliers = 15;
+};
+
+struct QualityConfig {
+  int size = 112;               // blur and brightness are measured at size x size
+  int sharpness_width = 320;    // the sharpness is measured at this width
+  double sharpness_gate = 0.5;  // frames below it are not candidates (second seed)
+  double edge_contrast = 12;    // Kumar sharpness: summed first differences of an edge
+  double sharp_ratio = 0.45;    // Kumar sharpness: ratio that makes an edge sharp
+};
+
+struct SemanticConfig {
+  std::string model;    // ONNX text segmenter with its .json beside it
+  double border = 0.1;  // border band, as a fraction of the mask's smaller side
+  int threads = 1;      // OpenCV DNN threads
+};
+
 struct SelectorConfig {
-  enum class Strategy { kStride };
-  Strategy strategy = Strategy::kStride;
-  int stride = 15;  // kStride: one keyframe every `stride` frames
+  enum class Strategy {
+    kVslam,     // publish the V-SLAM keyframe itself
+    kQuality,   // best quality in the window
+    kSemantic,  // best text score over frames spread across the window
+    kFull,      // sharpness gate, top third by quality, best text score (first seed)
+  };
+  Strategy strategy = Strategy::kQuality;
+  int density = 1;             // one keyframe per `density` V-SLAM keyframes
+  int max_window_frames = 90;  // frames buffered at most (windows are clipped to them)
+  TriggerConfig trigger;
+  QualityConfig quality;
+  SemanticConfig semantic;
 };
 
 struct CodecConfig {

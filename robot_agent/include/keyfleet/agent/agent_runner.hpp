@@ -16,7 +16,7 @@ enum class AgentOutcome {
 class AgentRunner {
  public:
   AgentRunner(const AgentConfig& config, FrameSource& source, KeyframeAgent& agent, AgentLink& link,
-              Logger logger);
+              StageClock& clock, Logger logger);
   AgentOutcome run(const StopToken& stop);
 
  private:
@@ -29,6 +29,7 @@ class AgentRunner {
   FrameSource& source_;
   KeyframeAgent& agent_;
   AgentLink& link_;
+  StageClock& clock_;
   Logger logger_;
   std::chrono::steady_clock::time_point next_stats_;
 };

@@ -19,7 +19,8 @@ namespace keyfleet::agent {
 class KeyframeAgent {
  public:
   KeyframeAgent(const AgentConfig& config, std::unique_ptr<KeyframeSelector> selector,
-                std::unique_ptr<ImageCodec> codec, Outbox& outbox, AgentLink& link, Logger logger);
+                std::unique_ptr<ImageCodec> codec, Outbox& outbox, AgentLink& link,
+                StageClock& clock, Logger logger);
 
   void process(const Frame& frame, std::int64_t now_ns);
   void finish_stream(std::int64_t now_ns);
@@ -31,7 +32,6 @@ class KeyframeAgent {
   AgentStats stats(bool finished, std::int64_t now_ns) const;
   std::uint64_t pending() const { return outbox_.pending(); }
   std::uint64_t rejected() const { return rejected_; }
-  StageClock& stage_clock() { return clock_; }
 
  private:
   void publish_selection(const Selection& selection, std::int64_t now_ns);
@@ -42,9 +42,9 @@ class KeyframeAgent {
   std::unique_ptr<ImageCodec> codec_;
   Outbox& outbox_;
   AgentLink& link_;
+  StageClock& clock_;
   Logger logger_;
   BandwidthLedger ledger_;
-  StageClock clock_;
   std::uint64_t rejected_ = 0;
   std::set<std::uint64_t> never_sent_;  // in the outbox, first write failed
 };

@@ -1,10 +1,15 @@
 #pragma once
 #include <cstdint>
+#include <deque>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "keyfleet/agent/frame_source.hpp"
+#include "keyfleet/agent/keyframe_trigger.hpp"
+#include "keyfleet/agent/text_segmenter.hpp"
 #include "keyfleet/common/config.hpp"
+#include "keyfleet/common/stage_clock.hpp"
 
 namespace keyfleet::agent {
 
@@ -34,19 +39,49 @@ class KeyframeSelector {
   virtual std::vector<Selection> finish() = 0;
 };
 
-// The fixed-stride trigger: every `stride`-th frame is both the V-SLAM keyframe and the
-// published one (a baseline for experiments and the placeholder for the full selection).
-class StrideSelector final : public KeyframeSelector {
+// The first seed's hierarchical selection around V-SLAM keyframes (DESIGN.md §2.4). With the
+// last selection at frame s and a new V-SLAM keyframe at k, the window holds W = (k - s) / 2
+// frames, two thirds before k and one third after (so W/3 frames are buffered). `quality`
+// picks the best blur x brightness score (each normalised by its maximum in the window)
+// among frames that pass the sharpness gate; `full` runs the segmenter on the top W/3 of
+// those as one batch and picks the best text score (quality breaks ties and decides when no
+// text is seen); `semantic` scores up to W/3 frames spread over the window; `vslam` publishes
+// the V-SLAM keyframe itself. `density` keeps one of every m V-SLAM keyframes.
+class HierarchicalSelector final : public KeyframeSelector {
  public:
-  explicit StrideSelector(int stride);
+  HierarchicalSelector(const SelectorConfig& config, std::unique_ptr<KeyframeTrigger> trigger,
+                       std::unique_ptr<TextSegmenter> segmenter, StageClock* clock);
   SelectorStep push(const Frame& frame) override;
-  std::vector<Selection> finish() override { return {}; }
+  std::vector<Selection> finish() override;
+
+  struct Scored {
+    Frame frame;
+    double blur = 0, brightness = 0, sharpness = 0;
+  };
+  // The scores of one frame (what push() computes for every frame).
+  Scored score(const Frame& frame);
 
  private:
-  std::uint64_t stride_;
-  std::uint64_t last_selected_ = 0;
+  struct Window {
+    std::uint64_t keyframe, first, last;
+  };
+  Selection resolve(const Window& window);
+  void trim_buffer();
+
+  SelectorConfig config_;
+  std::unique_ptr<KeyframeTrigger> trigger_;
+  std::unique_ptr<TextSegmenter> segmenter_;
+  StageClock* clock_;
+  StageClock own_clock_;
+  std::deque<Scored> buffer_;
+  std::optional<Window> pending_;
+  std::optional<std::uint64_t> last_selected_;
+  std::uint64_t vslam_keyframes_ = 0;
 };
 
-std::unique_ptr<KeyframeSelector> make_selector(const SelectorConfig& config);
+// Builds the configured trigger, segmenter (for the semantic strategies) and selector.
+// Throws StartupError when a model or keyframe list cannot be used.
+std::unique_ptr<KeyframeSelector> make_selector(const SelectorConfig& config, double fps,
+                                                StageClock* clock = nullptr);
 
 }  // namespace keyfleet::agent
