@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <iostream>
 
+#include "keyfleet/agent/selection_eval.hpp"
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/process_tuning.hpp"
 #include "keyfleet/mission/mission_runner.hpp"
@@ -72,6 +73,34 @@ int run_scenario_montage(const std::string& dir, const std::string& out,
   return 0;
 }
 
+int run_selection_eval(const std::string& scenario_dir, const std::vector<std::string>& drones,
+                       const std::string& agent_config, const std::string& model) {
+  AgentConfig agent = agent_config.empty() ? AgentConfig{} : load_agent_config(agent_config);
+  if (!model.empty()) agent.selector.semantic.model = model;
+  std::vector<SelectorConfig::Strategy> strategies = {SelectorConfig::Strategy::kVslam,
+                                                      SelectorConfig::Strategy::kQuality};
+  if (!agent.selector.semantic.model.empty()) {
+    strategies.push_back(SelectorConfig::Strategy::kSemantic);
+    strategies.push_back(SelectorConfig::Strategy::kFull);
+  } else {
+    std::printf("(no text model given: semantic and full skipped; pass --model)\n");
+  }
+  for (const auto& drone : drones) {
+    const auto e = agent::evaluate_selection(scenario_dir, drone, agent.selector, strategies);
+    std::printf(
+        "\n%s: %zu frames, %zu distinct words fully visible in the sequence, trigger "
+        "%.2f ms/frame\n",
+        e.drone.c_str(), e.frames, e.words_in_sequence, e.trigger_ms_per_frame);
+    std::printf("%-9s %6s %6s %12s %11s %10s %10s %10s\n", "strategy", "vslam", "sent",
+                "words(full)", "word views", "blur px", "sharpness", "ms/frame");
+    for (const auto& r : e.strategies)
+      std::printf("%-9s %6zu %6zu %12zu %11zu %10.2f %10.3f %10.2f\n", r.strategy.c_str(),
+                  r.vslam_keyframes, r.keyframes, r.distinct_full_words, r.full_word_views,
+                  r.mean_blur_px, r.mean_sharpness, r.cpu_ms_per_frame);
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -125,12 +154,29 @@ int main(int argc, char** argv) {
   montage->add_flag("--words", montage_options.draw_words,
                     "outline ground-truth words (green full, yellow cut, red occluded)");
 
+  auto* selection = app.add_subcommand("selection", "the agent's keyframe selection, offline");
+  selection->require_subcommand(1);
+  auto* evaluate = selection->add_subcommand(
+      "eval", "strategies against a scenario's ground truth (same V-SLAM keyframes for all)");
+  std::vector<std::string> eval_drones = {"drone_0"};
+  std::string eval_agent_config, eval_model;
+  evaluate->add_option("scenario", scenario_dir, "scenario folder")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  evaluate->add_option("--drones", eval_drones, "drones to evaluate");
+  evaluate->add_option("--config", eval_agent_config, "agent YAML whose selector settings to use")
+      ->check(CLI::ExistingFile);
+  evaluate->add_option("--model", eval_model, "ONNX text segmenter for semantic and full")
+      ->check(CLI::ExistingFile);
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*mission) return run_mission(config_path, drones, run_root);
     if (*generate) return run_scenario_generate(scenario_config, out, threads);
     if (*training) return run_scenario_training(scenario_config, out, count);
     if (*montage) return run_scenario_montage(scenario_dir, out, montage_options);
+    if (*evaluate)
+      return run_selection_eval(scenario_dir, eval_drones, eval_agent_config, eval_model);
   } catch (const std::exception& e) {
     std::cerr << "keyfleet: error: " << e.what() << "\n";
     return 1;

@@ -46,14 +46,21 @@ struct OrbSlamTriggerParams {
   int mapping_busy_frames = 2;  // local mapping is busy this long after a keyframe
   double ref_ratio = 0.9;       // monocular thRefRatio
   int min_inliers = 15;
-  int lost_frames = 5;     // tracking lost this long: start again with a new keyframe
-  double ransac_px = 1.0;  // epipolar distance threshold at full resolution
+  int lost_frames = 5;           // tracking lost this long: start again with a new keyframe
+  double ransac_px = 1.0;        // epipolar distance threshold at full resolution
+  double search_radius_px = 24;  // guided matching radius at full resolution
+  int max_hamming = 50;          // ORB-SLAM2 TH_LOW
+  double nn_ratio = 0.9;
 };
 
 // Emulates ORB-SLAM2's monocular Tracking::NeedNewKeyFrame on ORB features tracked against
-// the reference (last) keyframe. inliers = matches consistent with a fundamental matrix
-// (RANSAC); nRef = the reference keyframe's features that the first frame after it
-// tracked (its trackable map points). A new keyframe when
+// the reference (last) keyframe. Matching is guided as ORB-SLAM2's is: each reference feature
+// is searched for within a radius around where a constant-velocity model puts it (the image
+// shift of the previous frame), at a neighbouring scale, best Hamming distance under
+// max_hamming and nn_ratio times the second best. inliers = matches consistent with a
+// fundamental matrix (RANSAC); nRef = the reference keyframe's features that the first frame
+// after it tracked (its trackable map points); both counts are medians over three frames.
+// A new keyframe when
 //   (frames since the last >= max_frames  OR  local mapping idle)
 //   AND inliers < ref_ratio * nRef  AND  inliers > min_inliers.
 class OrbSlamTrigger final : public KeyframeTrigger {
@@ -65,7 +72,7 @@ class OrbSlamTrigger final : public KeyframeTrigger {
   int reference_tracked() const { return reference_tracked_; }
 
  private:
-  int track(const OrbFeatures& current) const;  // inliers against the reference keyframe
+  int track(const OrbFeatures& current);  // inliers against the reference keyframe
 
   OrbSlamTriggerParams params_;
   GridOrbExtractor extractor_;
@@ -75,6 +82,9 @@ class OrbSlamTrigger final : public KeyframeTrigger {
   int frames_since_ = 0;
   int lost_ = 0;
   int last_inliers_ = 0;
+  cv::Point2f shift_{0, 0};  // image motion of the reference features in the last frame
+  static constexpr std::size_t kSmoothing = 3;
+  std::vector<int> recent_;  // inlier counts of the last frames since the keyframe
 };
 
 }  // namespace keyfleet::agent
