@@ -2,6 +2,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 namespace keyfleet::agent {
@@ -23,6 +24,8 @@ double brightness_score(const cv::Mat& bgr) {
 }
 
 namespace {
+
+constexpr double kMinEdgeFraction = 0.02;
 
 // Fraction of edge pixels that are sharp, for differences taken along one axis.
 double sharp_fraction(const cv::Mat& image, bool along_x, const SharpnessParams& params) {
@@ -46,7 +49,10 @@ double sharp_fraction(const cv::Mat& image, bool along_x, const SharpnessParams&
   cv::Mat ratio;
   cv::divide(second, first, ratio);
   const int sharp = cv::countNonZero(edges & (ratio > params.sharp_ratio));
-  return double(sharp) / edge_count;
+  // A heavily blurred frame keeps few edges, and the few left are noise that looks sharp:
+  // below 2 % edge pixels the fraction is scaled down, which keeps the score monotone.
+  const double scarcity = std::min(1.0, edge_count / (kMinEdgeFraction * double(image.total())));
+  return double(sharp) / edge_count * scarcity;
 }
 
 }  // namespace
@@ -56,7 +62,7 @@ double kumar_sharpness(const cv::Mat& grey, const SharpnessParams& params) {
   cv::medianBlur(grey, smooth, 3);
   const double rx = sharp_fraction(smooth, true, params);
   const double ry = sharp_fraction(smooth, false, params);
-  return std::sqrt(rx * rx + ry * ry) / std::sqrt(2.0);
+  return std::min(rx, ry);
 }
 
 }  // namespace keyfleet::agent

@@ -66,8 +66,8 @@ SelectorStep HierarchicalSelector::push(const Frame& frame) {
     pending_.reset();
   }
   if (step.vslam_keyframe && vslam_keyframes_++ % std::uint64_t(config_.density) == 0) {
-    if (pending_) {  // the next keyframe came first: decide with what there is
-      pending_->last = frame.index;
+    if (pending_) {  // the next keyframe came first: decide with the frames before it
+      pending_->last = std::max(pending_->first, frame.index - 1);
       step.selected.push_back(resolve(*pending_));
       pending_.reset();
     }

@@ -94,7 +94,8 @@ int OrbSlamTrigger::track(const OrbFeatures& current) {
     std::nth_element(dx.begin(), dx.begin() + long(dx.size() / 2), dx.end());
     std::nth_element(dy.begin(), dy.begin() + long(dy.size() / 2), dy.end());
     const cv::Point2f step(dx[dx.size() / 2], dy[dy.size() / 2]);
-    shift_ = step + (step - shift_) * 0.0f;  // the next frame moves at least as far
+    const cv::Point2f velocity = step - shift_;  // image motion over the last frame
+    shift_ = step + velocity;                    // where the next frame should see them
   }
   return int(dx.size());
 }

@@ -1,0 +1,329 @@
+// Per-frame image quality: blur energy and brightness react to blur and bad exposure, and the
+// Kumar sharpness falls with motion blur on real photos and on generated frames with known blur.
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "keyfleet/agent/image_quality.hpp"
+#include "keyfleet/common/config.hpp"
+#include "keyfleet/common/scenario_truth.hpp"
+#include "keyfleet/scenario/camera_effects.hpp"
+#include "keyfleet/scenario/scenario_generator.hpp"
+#include "test_support.hpp"
+
+namespace keyfleet::agent {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path data_dir() {
+  const char* env = std::getenv("KEYFLEET_DATA");
+  return env ? fs::path(env) : fs::path("../shared/data");
+}
+
+#define REQUIRE_DATA(relative)                           \
+  const fs::path data_path = data_dir() / (relative);    \
+  if (!fs::exists(data_path))                            \
+  GTEST_SKIP() << "real data not found at " << data_path \
+               << " (set KEYFLEET_DATA to the shared data folder to run this test)"
+
+constexpr char kSharpPhotos[] = "icdar2015/train_sharp/images";
+
+// The sorted *.jpg files of a folder.
+std::vector<fs::path> jpg_files(const fs::path& folder) {
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(folder))
+    if (entry.is_regular_file() && entry.path().extension() == ".jpg")
+      files.push_back(entry.path());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+cv::Mat grey_of(const cv::Mat& bgr) {
+  cv::Mat grey;
+  cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+  return grey;
+}
+
+// Grey, downscaled to `width` as the selector measures sharpness (never upscaled).
+cv::Mat grey_at_width(const cv::Mat& bgr, int width) {
+  cv::Mat grey = grey_of(bgr);
+  const double f = double(width) / grey.cols;
+  if (f < 1) cv::resize(grey, grey, {}, f, f, cv::INTER_AREA);
+  return grey;
+}
+
+cv::Mat motion_blurred(const cv::Mat& image, double length_px, double angle_deg) {
+  cv::Mat out;
+  cv::filter2D(image, out, -1, scenario::motion_blur_kernel(length_px, angle_deg), {-1, -1}, 0,
+               cv::BORDER_REPLICATE);
+  return out;
+}
+
+cv::Mat gaussian_blurred(const cv::Mat& image, double sigma) {
+  cv::Mat out;
+  cv::GaussianBlur(image, out, {0, 0}, sigma);
+  return out;
+}
+
+cv::Mat with_gain(const cv::Mat& bgr, double gain) {
+  cv::Mat out;
+  bgr.convertTo(out, -1, gain);  // saturates at 255
+  return out;
+}
+
+double mean_lightness(const cv::Mat& bgr) {  // CIELAB L in [0, 100]
+  cv::Mat lab;
+  cv::cvtColor(bgr, lab, cv::COLOR_BGR2Lab);
+  return cv::mean(lab)[0] * 100.0 / 255.0;
+}
+
+// A mid-grey street-like scene: a soft gradient, blocks and dark words (sharp edges).
+cv::Mat make_scene(int width, int height) {
+  cv::Mat image(height, width, CV_8UC3);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x)
+      image.at<cv::Vec3b>(y, x) =
+          cv::Vec3b(std::uint8_t(90 + 60 * x / width), std::uint8_t(110 + 40 * y / height),
+                    std::uint8_t(120 + 30 * (x + y) / (width + height)));
+  cv::rectangle(image, cv::Rect(width / 10, height / 6, width / 3, height / 4),
+                cv::Scalar(200, 210, 220), cv::FILLED);
+  cv::rectangle(image, cv::Rect(width / 2, height / 2, width / 3, height / 3),
+                cv::Scalar(40, 60, 50), cv::FILLED);
+  cv::putText(image, "BAKERY", {width / 10 + 4, height / 6 + height / 6}, cv::FONT_HERSHEY_SIMPLEX,
+              width / 400.0, cv::Scalar(20, 20, 20), 2, cv::LINE_AA);
+  cv::putText(image, "OPEN 24H", {width / 8, 7 * height / 8}, cv::FONT_HERSHEY_DUPLEX,
+              width / 500.0, cv::Scalar(240, 240, 240), 2, cv::LINE_AA);
+  return image;
+}
+
+std::string join(const std::vector<double>& values) {
+  std::ostringstream out;
+  for (std::size_t i = 0; i < values.size(); ++i) out << (i ? ", " : "") << values[i];
+  return out.str();
+}
+
+constexpr double kBlurLengths[] = {0, 2, 4, 8, 16};
+
+// Kumar sharpness of `grey` blurred by each of kBlurLengths along `angle_deg`.
+std::vector<double> sharpness_by_blur(const cv::Mat& grey, double angle_deg) {
+  std::vector<double> scores;
+  for (double length : kBlurLengths)
+    scores.push_back(kumar_sharpness(motion_blurred(grey, length, angle_deg)));
+  return scores;
+}
+
+void expect_strictly_falling(const std::vector<double>& scores, const std::string& what) {
+  for (std::size_t i = 1; i < scores.size(); ++i)
+    EXPECT_LT(scores[i], scores[i - 1])
+        << what << ": blur " << kBlurLengths[i] << " px vs " << kBlurLengths[i - 1]
+        << " px; scores for 0,2,4,8,16 px: " << join(scores);
+}
+
+double median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  const std::size_t n = values.size();
+  return n % 2 ? values[n / 2] : (values[n / 2 - 1] + values[n / 2]) / 2;
+}
+
+// --- energy of Laplacian and brightness -------------------------------------------------------
+
+void expect_blur_lowers_energy(const cv::Mat& bgr, const std::string& what) {
+  const cv::Mat grey = grey_of(bgr);
+  const double sharp = energy_of_laplacian(grey);
+  EXPECT_GT(sharp, 0.0) << what;
+  EXPECT_LT(energy_of_laplacian(gaussian_blurred(grey, 1.5)), sharp) << what << ": Gaussian";
+  EXPECT_LT(energy_of_laplacian(motion_blurred(grey, 9, 20)), sharp) << what << ": motion";
+  EXPECT_LT(energy_of_laplacian(gaussian_blurred(grey, 4.0)),
+            energy_of_laplacian(gaussian_blurred(grey, 1.5)))
+      << what << ": more blur, less energy";
+}
+
+void expect_bad_exposure_lowers_brightness(const cv::Mat& bgr, const std::string& what) {
+  const double original = brightness_score(bgr);
+  EXPECT_GT(original, 0.0) << what;
+  EXPECT_LT(brightness_score(with_gain(bgr, 2.5)), original) << what << ": over-exposed x2.5";
+  EXPECT_LT(brightness_score(with_gain(bgr, 0.3)), original) << what << ": under-exposed x0.3";
+}
+
+TEST(EnergyOfLaplacian, BlurredCopyOfASyntheticSceneScoresLower) {
+  expect_blur_lowers_energy(make_scene(320, 240), "synthetic scene");
+}
+
+TEST(EnergyOfLaplacian, FlatImageHasNoEnergy) {
+  // Zero up to the float rounding of the kernel's (1/6) weights.
+  EXPECT_LT(energy_of_laplacian(cv::Mat(48, 64, CV_8U, cv::Scalar(77))), 1e-3);
+}
+
+TEST(EnergyOfLaplacian, BlurredCopiesOfRealPhotosScoreLower) {
+  REQUIRE_DATA(kSharpPhotos);
+  const auto files = jpg_files(data_path);
+  ASSERT_GE(files.size(), 3u) << data_path;
+  for (const auto& file : files) {
+    const cv::Mat bgr = cv::imread(file.string(), cv::IMREAD_COLOR);
+    ASSERT_FALSE(bgr.empty()) << file;
+    expect_blur_lowers_energy(bgr, file.filename().string());
+    // And at the selector's 112 x 112 measuring size.
+    cv::Mat small;
+    cv::resize(bgr, small, {112, 112}, 0, 0, cv::INTER_AREA);
+    expect_blur_lowers_energy(small, file.filename().string() + " at 112x112");
+  }
+}
+
+TEST(BrightnessScore, OverAndUnderExposedSyntheticSceneScoresLower) {
+  const cv::Mat scene = make_scene(320, 240);
+  ASSERT_NEAR(mean_lightness(scene), 50, 15) << "the scene must start well exposed";
+  expect_bad_exposure_lowers_brightness(scene, "synthetic scene");
+  expect_bad_exposure_lowers_brightness(test::make_smooth_image(160, 120), "smooth image");
+}
+
+TEST(BrightnessScore, FlatMidGreyScoresHigherThanBlackOrWhite) {
+  const cv::Mat grey(32, 32, CV_8UC3, cv::Scalar::all(119));  // L close to 50
+  EXPECT_GT(brightness_score(grey), brightness_score(cv::Mat(32, 32, CV_8UC3, cv::Scalar::all(0))));
+  EXPECT_GT(brightness_score(grey),
+            brightness_score(cv::Mat(32, 32, CV_8UC3, cv::Scalar::all(255))));
+}
+
+TEST(BrightnessScore, OverAndUnderExposedRealPhotosScoreLower) {
+  REQUIRE_DATA(kSharpPhotos);
+  int tested = 0;
+  for (const auto& file : jpg_files(data_path)) {
+    const cv::Mat bgr = cv::imread(file.string(), cv::IMREAD_COLOR);
+    ASSERT_FALSE(bgr.empty()) << file;
+    // Brightening a photo that is already dark brings it toward mid-grey, which is right to
+    // score higher: only photos that start reasonably exposed can be over-exposed.
+    const double lightness = mean_lightness(bgr);
+    if (lightness < 30 || lightness > 70) continue;
+    ++tested;
+    expect_bad_exposure_lowers_brightness(bgr, file.filename().string());
+    cv::Mat small;
+    cv::resize(bgr, small, {112, 112}, 0, 0, cv::INTER_AREA);
+    expect_bad_exposure_lowers_brightness(small, file.filename().string() + " at 112x112");
+  }
+  EXPECT_GE(tested, 3) << "too few well-exposed photos in " << data_path;
+}
+
+// --- Kumar sharpness ---------------------------------------------------------------------------
+
+TEST(KumarSharpness, LiesInTheUnitIntervalAndIsZeroWithoutEdges) {
+  EXPECT_EQ(kumar_sharpness(cv::Mat(60, 80, CV_8U, cv::Scalar(128))), 0.0);
+  const double s = kumar_sharpness(grey_of(make_scene(320, 240)));
+  EXPECT_GT(s, 0.0);
+  EXPECT_LE(s, 1.0);
+}
+
+TEST(KumarSharpness, FallsMonotonicallyWithMotionBlurOnASyntheticScene) {
+  const cv::Mat grey = grey_of(make_scene(320, 240));
+  expect_strictly_falling(sharpness_by_blur(grey, 0), "synthetic scene, 0 deg");
+  expect_strictly_falling(sharpness_by_blur(grey, 30), "synthetic scene, 30 deg");
+}
+
+TEST(KumarSharpness, FallsMonotonicallyWithMotionBlurOnRealPhotos) {
+  REQUIRE_DATA(kSharpPhotos);
+  const auto files = jpg_files(data_path);
+  ASSERT_GE(files.size(), 3u) << data_path;
+  for (const auto& file : files) {
+    const cv::Mat bgr = cv::imread(file.string(), cv::IMREAD_COLOR);
+    ASSERT_FALSE(bgr.empty()) << file;
+    const cv::Mat grey = grey_at_width(bgr, 320);
+    for (double angle : {0.0, 30.0, 90.0})
+      expect_strictly_falling(
+          sharpness_by_blur(grey, angle),
+          file.filename().string() + " at 320 px, " + std::to_string(int(angle)) + " deg");
+  }
+}
+
+// The second seed's gate (QualityConfig::sharpness_gate, measured at sharpness_width) must let
+// sharp photos through and stop clearly motion-blurred ones.
+TEST(KumarSharpness, DefaultGateSeparatesSharpPhotosFromEightPixelMotionBlur) {
+  REQUIRE_DATA(kSharpPhotos);
+  const QualityConfig quality;
+  const auto files = jpg_files(data_path);
+  ASSERT_GE(files.size(), 3u) << data_path;
+  for (const auto& file : files) {
+    const cv::Mat bgr = cv::imread(file.string(), cv::IMREAD_COLOR);
+    ASSERT_FALSE(bgr.empty()) << file;
+    const cv::Mat grey = grey_at_width(bgr, quality.sharpness_width);
+    const double sharp = kumar_sharpness(grey);
+    EXPECT_GT(sharp, quality.sharpness_gate) << file.filename() << " (sharp)";
+    for (double length : {8.0, 16.0}) {
+      const double blurred = kumar_sharpness(motion_blurred(grey, length, 30));
+      EXPECT_LT(blurred, quality.sharpness_gate)
+          << file.filename() << " blurred " << length << " px at " << quality.sharpness_width
+          << " px width scores " << blurred << " (sharp: " << sharp << ")";
+    }
+  }
+}
+
+// One drone of a small generated street: frames with ground-truth motion blur.
+class ScenarioSharpness : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new test::TempDir();
+    ScenarioConfig config;
+    config.seed = 3;
+    config.frames_per_drone = 120;
+    config.width = 320;
+    config.height = 240;
+    config.street.length_m = 60;
+    config.drones.count = 1;
+    config.drones.shake_burst_rate_hz = 0.5;  // bursts within 4 s of flight
+    config.camera.exposure_event_rate_hz = 0.5;
+    scenario::generate_scenario(config, dir_->file("street"), null_logger());
+    const auto s = scenario::read_scenario(dir_->file("street"));
+    drone_dir_ = new fs::path(dir_->path() / "street" / s.drones.at(0).folder);
+    truth_ =
+        new std::vector<scenario::FrameTruth>(scenario::read_frame_truth(drone_dir_->string()));
+  }
+  static void TearDownTestSuite() {
+    delete truth_;
+    delete drone_dir_;
+    delete dir_;
+  }
+  static cv::Mat image(const scenario::FrameTruth& frame) {
+    return cv::imread((*drone_dir_ / frame.image).string(), cv::IMREAD_COLOR);
+  }
+  static test::TempDir* dir_;
+  static fs::path* drone_dir_;
+  static std::vector<scenario::FrameTruth>* truth_;
+};
+test::TempDir* ScenarioSharpness::dir_ = nullptr;
+fs::path* ScenarioSharpness::drone_dir_ = nullptr;
+std::vector<scenario::FrameTruth>* ScenarioSharpness::truth_ = nullptr;
+
+TEST_F(ScenarioSharpness, FallsMonotonicallyWithMotionBlurOnGeneratedFrames) {
+  int tested = 0;
+  for (const auto& frame : *truth_) {
+    if (frame.motion_blur_px >= 1 || frame.index % 20 != 0) continue;
+    const cv::Mat grey = grey_at_width(image(frame), 320);
+    ASSERT_FALSE(grey.empty());
+    expect_strictly_falling(sharpness_by_blur(grey, 0),
+                            "generated frame " + std::to_string(frame.index));
+    ++tested;
+  }
+  EXPECT_GE(tested, 3);
+}
+
+TEST_F(ScenarioSharpness, FramesWithStrongTruthBlurHaveALowerMedianSharpness) {
+  std::vector<double> sharp, blurred;
+  for (const auto& frame : *truth_) {
+    const double s = kumar_sharpness(grey_at_width(image(frame), 320));
+    if (frame.motion_blur_px < 1) sharp.push_back(s);
+    if (frame.motion_blur_px > 8) blurred.push_back(s);
+  }
+  ASSERT_GE(sharp.size(), 10u) << "too few frames with less than 1 px of blur";
+  ASSERT_GE(blurred.size(), 3u) << "no shake burst blurred frames by more than 8 px";
+  EXPECT_LT(median(blurred), median(sharp))
+      << "blurred: " << join(blurred) << "; sharp median " << median(sharp);
+}
+
+}  // namespace
+}  // namespace keyfleet::agent

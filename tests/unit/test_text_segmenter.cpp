@@ -1,0 +1,174 @@
+// The semantic seam: the ONNX text segmenter loads its fixture, gives one mask per frame,
+// refuses broken or unusable models with a StartupError naming the file; the text score
+// prefers text away from the frame border.
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include "keyfleet/agent/text_segmenter.hpp"
+#include "keyfleet/common/error.hpp"
+#include "test_support.hpp"
+
+namespace keyfleet::agent {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kFixtures = KEYFLEET_FIXTURES;
+
+std::string fixture(const std::string& name) { return (kFixtures / name).string(); }
+
+std::vector<char> read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::vector<char>((std::istreambuf_iterator<char>(in)), {});
+}
+
+void write_bytes(const std::string& path, const char* data, std::size_t size) {
+  std::ofstream out(path, std::ios::binary);
+  out.write(data, std::streamsize(size));
+}
+
+// The message of the StartupError that loading `model` throws ("" when none is thrown).
+std::string startup_error_of(const std::string& model) {
+  try {
+    DnnTextSegmenter segmenter(model, 1);
+  } catch (const StartupError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// Dark words on a light sign: the high-contrast strokes a text detector must respond to.
+cv::Mat make_text_image(int width, int height) {
+  cv::Mat image(height, width, CV_8UC3, cv::Scalar(235, 235, 235));
+  cv::putText(image, "PHARMACY", {width / 12, height / 2}, cv::FONT_HERSHEY_SIMPLEX, width / 300.0,
+              cv::Scalar(10, 10, 10), 3, cv::LINE_AA);
+  cv::putText(image, "open 9-18", {width / 12, 4 * height / 5}, cv::FONT_HERSHEY_PLAIN,
+              width / 250.0, cv::Scalar(20, 20, 160), 2, cv::LINE_AA);
+  return image;
+}
+
+// --- DnnTextSegmenter --------------------------------------------------------------------------
+
+TEST(DnnTextSegmenter, LoadsTheFixtureWithItsDescription) {
+  DnnTextSegmenter segmenter(fixture("edge_text_segmenter.onnx"), 1);
+  const SegmenterInfo& info = segmenter.info();
+  EXPECT_EQ(info.input_size, cv::Size(256, 128));
+  EXPECT_EQ(info.classes, (std::vector<std::string>{"background", "text"}));
+  EXPECT_EQ(info.target_classes, (std::vector<int>{1}));
+}
+
+TEST(DnnTextSegmenter, BatchOfThreeFramesGivesThreeBinaryMasksAtTheInputSize) {
+  DnnTextSegmenter segmenter(fixture("edge_text_segmenter.onnx"), 1);
+  const std::vector<cv::Mat> frames = {make_text_image(640, 480), test::make_smooth_image(320, 240),
+                                       test::make_noise_image(200, 150, 4)};
+  const auto masks = segmenter.segment(frames);
+  ASSERT_EQ(masks.size(), 3u);
+  for (std::size_t i = 0; i < masks.size(); ++i) {
+    EXPECT_EQ(masks[i].type(), CV_8UC1) << "mask " << i;
+    EXPECT_EQ(masks[i].size(), cv::Size(256, 128)) << "mask " << i;
+    const int text = cv::countNonZero(masks[i]);
+    EXPECT_EQ(cv::countNonZero(masks[i] == 255), text) << "mask " << i << " is not 0/255";
+  }
+  EXPECT_GT(cv::countNonZero(masks[0]), 0) << "no text found on a sign";
+  EXPECT_TRUE(segmenter.segment({}).empty());
+}
+
+TEST(DnnTextSegmenter, HighContrastTextGivesMoreMaskPixelsThanFlatGrey) {
+  DnnTextSegmenter segmenter(fixture("edge_text_segmenter.onnx"), 1);
+  const auto masks = segmenter.segment(
+      {make_text_image(512, 256), cv::Mat(256, 512, CV_8UC3, cv::Scalar::all(128))});
+  ASSERT_EQ(masks.size(), 2u);
+  const int text = cv::countNonZero(masks[0]), flat = cv::countNonZero(masks[1]);
+  EXPECT_GT(text, flat);
+  EXPECT_GT(text, 100);
+  EXPECT_EQ(flat, 0);
+}
+
+TEST(DnnTextSegmenter, MissingModelFileIsAStartupErrorNamingIt) {
+  test::TempDir dir;
+  fs::copy_file(fixture("edge_text_segmenter.json"), dir.file("absent.json"));
+  const std::string model = dir.file("absent.onnx");
+  const std::string message = startup_error_of(model);
+  ASSERT_FALSE(message.empty()) << "expected StartupError";
+  EXPECT_NE(message.find(model), std::string::npos) << message;
+}
+
+TEST(DnnTextSegmenter, TruncatedModelIsAStartupErrorNamingIt) {
+  test::TempDir dir;
+  const auto bytes = read_bytes(fixture("edge_text_segmenter.onnx"));
+  ASSERT_GT(bytes.size(), 100u);
+  const std::string model = dir.file("truncated.onnx");
+  write_bytes(model, bytes.data(), bytes.size() / 2);
+  fs::copy_file(fixture("edge_text_segmenter.json"), dir.file("truncated.json"));
+  const std::string message = startup_error_of(model);
+  ASSERT_FALSE(message.empty()) << "expected StartupError";
+  EXPECT_NE(message.find(model), std::string::npos) << message;
+}
+
+TEST(DnnTextSegmenter, MissingDescriptionIsAStartupErrorNamingIt) {
+  test::TempDir dir;
+  const std::string model = dir.file("bare.onnx");
+  fs::copy_file(fixture("edge_text_segmenter.onnx"), model);
+  const std::string message = startup_error_of(model);
+  ASSERT_FALSE(message.empty()) << "expected StartupError";
+  EXPECT_NE(message.find(dir.file("bare.json")), std::string::npos) << message;
+}
+
+TEST(DnnTextSegmenter, BrokenDescriptionIsAStartupErrorNamingIt) {
+  test::TempDir dir;
+  const std::string model = dir.file("broken.onnx");
+  fs::copy_file(fixture("edge_text_segmenter.onnx"), model);
+  std::ofstream(dir.file("broken.json")) << "{\"format\": \"keyfleet-segmenter\", \"input_width\"";
+  const std::string message = startup_error_of(model);
+  ASSERT_FALSE(message.empty()) << "expected StartupError";
+  EXPECT_NE(message.find(dir.file("broken.json")), std::string::npos) << message;
+}
+
+TEST(DnnTextSegmenter, ModelWithTheWrongInputShapeIsAStartupErrorNamingIt) {
+  const std::string model = fixture("fixed_input_segmenter.onnx");
+  const std::string message = startup_error_of(model);
+  ASSERT_FALSE(message.empty()) << "expected StartupError";
+  EXPECT_NE(message.find(model), std::string::npos) << message;
+}
+
+// --- semantic_score ----------------------------------------------------------------------------
+
+TEST(SemanticScore, CentredTextScoresHigherThanTheSameTextAtTheBorder) {
+  const cv::Size size(256, 128);
+  const cv::Size blob(60, 20);
+  cv::Mat centred = cv::Mat::zeros(size, CV_8U), at_left = centred.clone(),
+          at_bottom = centred.clone();
+  centred(cv::Rect({(size.width - blob.width) / 2, (size.height - blob.height) / 2}, blob))
+      .setTo(255);
+  at_left(cv::Rect({0, (size.height - blob.height) / 2}, blob)).setTo(255);
+  at_bottom(cv::Rect({(size.width - blob.width) / 2, size.height - blob.height}, blob)).setTo(255);
+  ASSERT_EQ(cv::countNonZero(centred), cv::countNonZero(at_left));
+  const double border = 0.1;
+  const double centre_score = semantic_score(centred, border);
+  EXPECT_DOUBLE_EQ(centre_score, double(blob.area())) << "no text in the border band";
+  EXPECT_GT(centre_score, semantic_score(at_left, border));
+  EXPECT_GT(centre_score, semantic_score(at_bottom, border));
+  EXPECT_GT(semantic_score(at_left, border), 0.0);
+}
+
+TEST(SemanticScore, NoTextScoresZero) {
+  EXPECT_EQ(semantic_score(cv::Mat::zeros(128, 256, CV_8U), 0.1), 0.0);
+  EXPECT_EQ(semantic_score(cv::Mat::zeros(32, 64, CV_8U), 0.0), 0.0);
+}
+
+TEST(SemanticScore, MoreCentredTextScoresHigher) {
+  cv::Mat small = cv::Mat::zeros(128, 256, CV_8U), large = small.clone();
+  small(cv::Rect(100, 50, 30, 10)).setTo(255);
+  large(cv::Rect(80, 45, 90, 30)).setTo(255);
+  EXPECT_GT(semantic_score(large, 0.1), semantic_score(small, 0.1));
+}
+
+}  // namespace
+}  // namespace keyfleet::agent
