@@ -11,6 +11,7 @@ FROM debian:12
 COPY scripts/install_deps.sh /opt/keyfleet/install_deps.sh
 RUN /opt/keyfleet/install_deps.sh && rm -rf /var/lib/apt/lists/*
 COPY --from=build /build/bin/robot_agent /usr/local/bin/robot_agent
+COPY models/mininet/mininet_text.onnx models/mininet/mininet_text.json /usr/local/share/keyfleet/models/
 COPY configs /opt/keyfleet/configs
 COPY docker/configs /opt/keyfleet/docker-configs
 WORKDIR /data

@@ -6,6 +6,7 @@
 
 #include "keyfleet/common/clock.hpp"
 #include "keyfleet/common/dds_transport.hpp"
+#include "keyfleet/common/process_options.hpp"
 #include "keyfleet/common/shutdown_signal.hpp"
 #include "keyfleet/station/bandwidth_report.hpp"
 #include "keyfleet/station/ground_station.hpp"
@@ -15,19 +16,9 @@ namespace {
 using namespace keyfleet;
 namespace fs = std::filesystem;
 
-struct Options {
-  std::string config_path;
-  std::string run_dir = ".";
-  std::string log_file;
-  std::optional<int> domain;
-  std::string partition;
-};
-
-int run(const Options& options) {
+int run(const ProcessOptions& options) {
   StationConfig config = load_station_config(options.config_path);
-  apply_dds_environment(config.dds);
-  if (options.domain) config.dds.domain_id = *options.domain;
-  if (!options.partition.empty()) config.dds.partition = options.partition;
+  apply_dds_overrides(options, config.dds);
   fs::create_directories(options.run_dir);
 
   Logger logger = make_logger("station", config.log_level, options.log_file);
@@ -71,22 +62,9 @@ int run(const Options& options) {
 
 int main(int argc, char** argv) {
   keyfleet::block_termination_signals();
-  Options options;
+  keyfleet::ProcessOptions options;
   CLI::App app{"keyfleet ground station: stores and reports the fleet's keyframes"};
-  app.add_option("-c,--config", options.config_path, "station YAML config")
-      ->required()
-      ->check(CLI::ExistingFile);
-  app.add_option("--run-dir", options.run_dir, "folder for the database, log and reports");
-  app.add_option("--log-file", options.log_file, "also log to this file");
-  app.add_option("--domain", options.domain, "DDS domain id (overrides config and KEYFLEET_DOMAIN)")
-      ->check(CLI::Range(0, 232));
-  app.add_option("--partition", options.partition,
-                 "DDS partition (overrides config and KEYFLEET_PARTITION)");
+  keyfleet::add_process_options(app, options, "station YAML config");
   CLI11_PARSE(app, argc, argv);
-  try {
-    return run(options);
-  } catch (const std::exception& e) {
-    std::cerr << "ground_station: error: " << e.what() << "\n";
-    return 1;
-  }
+  return keyfleet::run_reporting_errors("ground_station", [&] { return run(options); });
 }

@@ -7,30 +7,20 @@
 #include "keyfleet/agent/agent_runner.hpp"
 #include "keyfleet/common/config_error.hpp"
 #include "keyfleet/common/dds_transport.hpp"
+#include "keyfleet/common/process_options.hpp"
 #include "keyfleet/common/process_tuning.hpp"
 
 namespace {
 
 using namespace keyfleet;
 
-struct Options {
-  std::string config_path;
-  std::string robot_id;
-  std::string run_dir = ".";
-  std::string log_file;
-  std::optional<int> domain;
-  std::string partition;
-};
-
-int run(const Options& options) {
+int run(const ProcessOptions& options, const std::string& robot_id) {
   AgentConfig config = load_agent_config(options.config_path);
-  apply_dds_environment(config.dds);
-  if (options.domain) config.dds.domain_id = *options.domain;
-  if (!options.partition.empty()) config.dds.partition = options.partition;
-  if (!options.robot_id.empty()) {
-    if (!is_valid_robot_id(options.robot_id))
-      throw ConfigError("--robot-id: '" + options.robot_id + "' must match [A-Za-z0-9_-]{1,32}");
-    config.robot_id = options.robot_id;
+  apply_dds_overrides(options, config.dds);
+  if (!robot_id.empty()) {
+    if (!is_valid_robot_id(robot_id))
+      throw ConfigError("--robot-id: '" + robot_id + "' must match [A-Za-z0-9_-]{1,32}");
+    config.robot_id = robot_id;
   }
   if (config.source.kind == SourceConfig::Kind::kScenario && config.source.drone.empty())
     config.source.drone = config.robot_id;
@@ -75,23 +65,11 @@ int run(const Options& options) {
 int main(int argc, char** argv) {
   keyfleet::block_termination_signals();
   keyfleet::keep_image_buffers_in_heap();
-  Options options;
+  keyfleet::ProcessOptions options;
+  std::string robot_id;
   CLI::App app{"keyfleet robot agent: selects keyframes from a camera stream and publishes them"};
-  app.add_option("-c,--config", options.config_path, "agent YAML config")
-      ->required()
-      ->check(CLI::ExistingFile);
-  app.add_option("--robot-id", options.robot_id, "overrides robot_id");
-  app.add_option("--run-dir", options.run_dir, "folder for the outbox and logs");
-  app.add_option("--log-file", options.log_file, "also log to this file");
-  app.add_option("--domain", options.domain, "DDS domain id (overrides config and KEYFLEET_DOMAIN)")
-      ->check(CLI::Range(0, 232));
-  app.add_option("--partition", options.partition,
-                 "DDS partition (overrides config and KEYFLEET_PARTITION)");
+  keyfleet::add_process_options(app, options, "agent YAML config");
+  app.add_option("--robot-id", robot_id, "overrides robot_id");
   CLI11_PARSE(app, argc, argv);
-  try {
-    return run(options);
-  } catch (const std::exception& e) {
-    std::cerr << "robot_agent: error: " << e.what() << "\n";
-    return 1;
-  }
+  return keyfleet::run_reporting_errors("robot_agent", [&] { return run(options, robot_id); });
 }

@@ -192,7 +192,8 @@ std::unique_ptr<KeyframeSelector> make_selector(const SelectorConfig& config, do
   std::unique_ptr<TextSegmenter> segmenter;
   if (config.strategy == SelectorConfig::Strategy::kSemantic ||
       config.strategy == SelectorConfig::Strategy::kFull)
-    segmenter = std::make_unique<DnnTextSegmenter>(config.semantic.model, config.semantic.threads);
+    segmenter = std::make_unique<DnnTextSegmenter>(locate_model(config.semantic.model),
+                                                   config.semantic.threads);
   return std::make_unique<HierarchicalSelector>(config, std::move(trigger), std::move(segmenter),
                                                 clock);
 }

@@ -89,8 +89,8 @@ SelectionEvaluation evaluate_selection(const std::string& scenario_dir, const st
     std::unique_ptr<TextSegmenter> segmenter;
     if (strategy == SelectorConfig::Strategy::kSemantic ||
         strategy == SelectorConfig::Strategy::kFull)
-      segmenter =
-          std::make_unique<DnnTextSegmenter>(config.semantic.model, config.semantic.threads);
+      segmenter = std::make_unique<DnnTextSegmenter>(locate_model(config.semantic.model),
+                                                     config.semantic.threads);
     HierarchicalSelector selector(config, std::make_unique<ReplayTrigger>(keyframes),
                                   std::move(segmenter), &clock);
     std::vector<Selection> selected;

@@ -44,8 +44,24 @@ SegmenterInfo read_segmenter_info(const std::string& model_path) {
   }
 }
 
-DnnTextSegmenter::DnnTextSegmenter(const std::string& model_path, int threads)
+std::string locate_model(const std::string& configured) {
+  namespace fs = std::filesystem;
+  if (fs::is_regular_file(configured)) return configured;
+  std::error_code error;
+  const fs::path self = fs::read_symlink("/proc/self/exe", error);
+  if (!error && fs::path(configured).is_relative()) {
+    const fs::path installed =
+        self.parent_path().parent_path() / "share" / "keyfleet" / "models" / configured;
+    if (fs::is_regular_file(installed)) return installed.string();
+  }
+  throw StartupError("segmenter: model '" + configured + "' not found (as given, or in " +
+                     (self.parent_path().parent_path() / "share/keyfleet/models").string() + ")");
+}
+
+DnnTextSegmenter::DnnTextSegmenter(const std::string& model_path, int threads,
+                                   std::optional<cv::Size> input_size)
     : info_(read_segmenter_info(model_path)) {
+  if (input_size) info_.input_size = *input_size;
   if (!std::filesystem::is_regular_file(model_path))
     throw StartupError("segmenter: model file " + model_path + " does not exist");
   try {

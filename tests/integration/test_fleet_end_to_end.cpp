@@ -26,31 +26,13 @@ TEST_F(FleetEndToEnd, EveryKeyframeStoredExactlyOnceWithIdenticalBytes) {
     configs.back().source.seed = 10 + static_cast<std::uint64_t>(i);
     agents.push_back(start_agent(configs.back()));
   }
-  for (auto& agent : agents) {
-    const auto status = agent->wait_for(seconds(90));
-    ASSERT_TRUE(status.has_value()) << agent->name() << " did not finish";
-    EXPECT_TRUE(status->ok()) << agent->name() << " " << status->describe() << "\n"
-                              << mission::tail_of_file(agent->log_path(), 20);
-  }
-  station->signal(SIGTERM);
-  const auto station_status = station->wait_for(seconds(30));
-  ASSERT_TRUE(station_status && station_status->ok())
-      << mission::tail_of_file(station->log_path(), 20);
+  finish_mission(agents, *station, seconds(90));
 
   const auto stored = stored_keyframes();
   for (const auto& config : configs) {
     const auto expected = expected_images(config);
     ASSERT_EQ(expected.size(), 12u);  // 60 frames, stride 5
-    std::vector<const StoredKeyframe*> mine;
-    for (const auto& k : stored)
-      if (k.robot_id == config.robot_id) mine.push_back(&k);
-    ASSERT_EQ(mine.size(), expected.size()) << config.robot_id;
-    for (std::size_t seq = 0; seq < expected.size(); ++seq) {
-      EXPECT_EQ(mine[seq]->sequence_number, seq);
-      EXPECT_EQ(mine[seq]->frame_index, seq * 5);
-      EXPECT_TRUE(mine[seq]->image == expected[seq])
-          << config.robot_id << " keyframe " << seq << " differs from what the agent encoded";
-    }
+    expect_stored_exactly(stored, config.robot_id, expected, 5);
     EXPECT_EQ(outbox_pending(config.robot_id), 0);
   }
 

@@ -80,29 +80,13 @@ TEST_F(StationOutage, KeyframesPublishedWhileStationIsDownArriveOnceAfterRestart
       << "outboxes never emptied after the restart";
   const auto recovered_at = Clock::now();
 
-  for (auto& agent : agents) {
-    const auto status = agent->wait_for(seconds(60));
-    ASSERT_TRUE(status.has_value()) << agent->name() << " did not finish";
-    EXPECT_TRUE(status->ok()) << agent->name() << " " << status->describe() << "\n"
-                              << mission::tail_of_file(agent->log_path(), 20);
-  }
-  station->signal(SIGTERM);
-  const auto station_status = station->wait_for(seconds(30));
-  ASSERT_TRUE(station_status && station_status->ok())
-      << mission::tail_of_file(station->log_path(), 20);
+  finish_mission(agents, *station, seconds(60));
 
   const auto stored = stored_keyframes();
   for (const auto& c : configs) {
     const auto expected = expected_images(c);
     ASSERT_EQ(expected.size(), 40u);
-    std::vector<const StoredKeyframe*> mine;
-    for (const auto& k : stored)
-      if (k.robot_id == c.robot_id) mine.push_back(&k);
-    ASSERT_EQ(mine.size(), expected.size()) << c.robot_id << " lost or duplicated keyframes";
-    for (std::size_t seq = 0; seq < expected.size(); ++seq) {
-      EXPECT_EQ(mine[seq]->sequence_number, seq);
-      EXPECT_TRUE(mine[seq]->image == expected[seq]) << c.robot_id << " keyframe " << seq;
-    }
+    expect_stored_exactly(stored, c.robot_id, expected, 0);
   }
 
   std::ifstream report_file(station_dir() / "report.json");

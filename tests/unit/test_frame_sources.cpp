@@ -16,17 +16,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path data_dir() {
-  const char* env = std::getenv("KEYFLEET_DATA");
-  return env ? fs::path(env) : fs::path("../shared/data");
-}
-
-#define REQUIRE_DATA(relative)                           \
-  const fs::path data_path = data_dir() / (relative);    \
-  if (!fs::exists(data_path))                            \
-  GTEST_SKIP() << "real data not found at " << data_path \
-               << " (set KEYFLEET_DATA to the shared data folder to run this test)"
-
 std::vector<Frame> read_all(FrameSource& source) {
   std::vector<Frame> frames;
   while (auto frame = source.next()) frames.push_back(*frame);
@@ -34,7 +23,7 @@ std::vector<Frame> read_all(FrameSource& source) {
 }
 
 TEST(ImageFolderSource, ReplaysARealKittiSequenceInOrderWithStreamTimestamps) {
-  REQUIRE_DATA("kitti/KITTI_sequence_1/image_l");
+  KEYFLEET_REQUIRE_DATA("kitti/KITTI_sequence_1/image_l");
   SourceConfig config;
   config.kind = SourceConfig::Kind::kImageFolder;
   config.path = data_path.string();
@@ -52,7 +41,7 @@ TEST(ImageFolderSource, ReplaysARealKittiSequenceInOrderWithStreamTimestamps) {
 }
 
 TEST(ImageFolderSource, MaxFramesStopsEarly) {
-  REQUIRE_DATA("kitti/KITTI_sequence_2/image_l");
+  KEYFLEET_REQUIRE_DATA("kitti/KITTI_sequence_2/image_l");
   SourceConfig config;
   config.kind = SourceConfig::Kind::kImageFolder;
   config.path = data_path.string();
@@ -92,7 +81,7 @@ TEST(ImageFolderSource, MissingOrEmptyFolderIsAStartupErrorNamingIt) {
 }
 
 TEST(VideoFileSource, ReadsARealHandHeldVideoWithItsOwnFrameRate) {
-  REQUIRE_DATA("opencv_samples/video/box.mp4");
+  KEYFLEET_REQUIRE_DATA("opencv_samples/video/box.mp4");
   SourceConfig config;
   config.kind = SourceConfig::Kind::kVideoFile;
   config.path = data_path.string();

@@ -24,17 +24,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path data_dir() {
-  const char* env = std::getenv("KEYFLEET_DATA");
-  return env ? fs::path(env) : fs::path("../shared/data");
-}
-
-#define REQUIRE_DATA(relative)                           \
-  const fs::path data_path = data_dir() / (relative);    \
-  if (!fs::exists(data_path))                            \
-  GTEST_SKIP() << "real data not found at " << data_path \
-               << " (set KEYFLEET_DATA to the shared data folder to run this test)"
-
 constexpr char kSharpPhotos[] = "icdar2015/train_sharp/images";
 
 // The sorted *.jpg files of a folder.
@@ -164,7 +153,7 @@ TEST(EnergyOfLaplacian, FlatImageHasNoEnergy) {
 }
 
 TEST(EnergyOfLaplacian, BlurredCopiesOfRealPhotosScoreLower) {
-  REQUIRE_DATA(kSharpPhotos);
+  KEYFLEET_REQUIRE_DATA(kSharpPhotos);
   const auto files = jpg_files(data_path);
   ASSERT_GE(files.size(), 3u) << data_path;
   for (const auto& file : files) {
@@ -193,7 +182,7 @@ TEST(BrightnessScore, FlatMidGreyScoresHigherThanBlackOrWhite) {
 }
 
 TEST(BrightnessScore, OverAndUnderExposedRealPhotosScoreLower) {
-  REQUIRE_DATA(kSharpPhotos);
+  KEYFLEET_REQUIRE_DATA(kSharpPhotos);
   int tested = 0;
   for (const auto& file : jpg_files(data_path)) {
     const cv::Mat bgr = cv::imread(file.string(), cv::IMREAD_COLOR);
@@ -227,7 +216,7 @@ TEST(KumarSharpness, FallsMonotonicallyWithMotionBlurOnASyntheticScene) {
 }
 
 TEST(KumarSharpness, FallsMonotonicallyWithMotionBlurOnRealPhotos) {
-  REQUIRE_DATA(kSharpPhotos);
+  KEYFLEET_REQUIRE_DATA(kSharpPhotos);
   const auto files = jpg_files(data_path);
   ASSERT_GE(files.size(), 3u) << data_path;
   for (const auto& file : files) {
@@ -244,7 +233,7 @@ TEST(KumarSharpness, FallsMonotonicallyWithMotionBlurOnRealPhotos) {
 // The second seed's gate (QualityConfig::sharpness_gate, measured at sharpness_width) must let
 // sharp photos through and stop clearly motion-blurred ones.
 TEST(KumarSharpness, DefaultGateSeparatesSharpPhotosFromEightPixelMotionBlur) {
-  REQUIRE_DATA(kSharpPhotos);
+  KEYFLEET_REQUIRE_DATA(kSharpPhotos);
   const QualityConfig quality;
   const auto files = jpg_files(data_path);
   ASSERT_GE(files.size(), 3u) << data_path;

@@ -30,17 +30,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path data_dir() {
-  const char* env = std::getenv("KEYFLEET_DATA");
-  return env ? fs::path(env) : fs::path("../shared/data");
-}
-
-#define REQUIRE_DATA(relative)                           \
-  const fs::path data_path = data_dir() / (relative);    \
-  if (!fs::exists(data_path))                            \
-  GTEST_SKIP() << "real data not found at " << data_path \
-               << " (set KEYFLEET_DATA to the shared data folder to run this test)"
-
 constexpr double kFps = 30;
 
 Frame make_frame(std::uint64_t index, const cv::Mat& image) {
@@ -145,7 +134,7 @@ TEST_F(GeneratedFlight, OrbSlamTriggerNeverFiresAgainOnAStaticNoisyCamera) {
 }
 
 TEST(OrbSlamTrigger, FiresRepeatedlyOnARealHandHeldVideo) {
-  REQUIRE_DATA("opencv_samples/video/box.mp4");
+  KEYFLEET_REQUIRE_DATA("opencv_samples/video/box.mp4");
   SourceConfig config;
   config.kind = SourceConfig::Kind::kVideoFile;
   config.path = data_path.string();

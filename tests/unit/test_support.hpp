@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdlib>
 #include <filesystem>
 #include <optional>
 #include <random>
@@ -20,6 +21,19 @@
 #include "keyfleet/common/types.hpp"
 
 namespace keyfleet::test {
+
+// The shared real-data folder (KEYFLEET_DATA, set by ctest; default ../shared/data).
+inline std::filesystem::path data_dir() {
+  const char* env = std::getenv("KEYFLEET_DATA");
+  return env ? std::filesystem::path(env) : std::filesystem::path("../shared/data");
+}
+
+// Declares `data_path` = data_dir() / relative, or skips the test saying where it looked.
+#define KEYFLEET_REQUIRE_DATA(relative)                                              \
+  const std::filesystem::path data_path = ::keyfleet::test::data_dir() / (relative); \
+  if (!std::filesystem::exists(data_path))                                           \
+  GTEST_SKIP() << "real data not found at " << data_path                             \
+               << " (set KEYFLEET_DATA to the shared data folder to run this test)"
 
 // A fresh directory under the system temp dir, named after the running test, removed
 // (with its contents) when the object goes out of scope.

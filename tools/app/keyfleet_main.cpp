@@ -2,8 +2,11 @@
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
+#include <filesystem>
+#include <functional>
 #include <iostream>
 
+#include "keyfleet/agent/segmenter_eval.hpp"
 #include "keyfleet/agent/selection_eval.hpp"
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/process_tuning.hpp"
@@ -101,6 +104,69 @@ int run_selection_eval(const std::string& scenario_dir, const std::vector<std::s
   return 0;
 }
 
+struct SegmenterEvalOptions {
+  std::string model;
+  std::string generated;  // held-out image + mask pairs
+  std::string data = "../shared/data";
+  std::size_t max_images = 0;
+  int repetitions = 15;
+};
+
+int run_segmenter_eval(const SegmenterEvalOptions& o) {
+  namespace fs = std::filesystem;
+  const std::string model = agent::locate_model(o.model);
+  const auto info = agent::read_segmenter_info(model);
+  std::printf("model %s: %s\n", model.c_str(), info.description.c_str());
+  const std::vector<cv::Size> sizes = {{512, 256}, {256, 128}, info.input_size};
+  std::printf("\n%-10s %8s %8s\n", "input", "threads", "ms");
+  for (const auto& size : sizes)
+    for (int threads : {1, 2}) {
+      agent::DnnTextSegmenter net(model, threads, size);
+      std::printf("%4dx%-5d %8d %8.1f\n", size.width, size.height, threads,
+                  agent::median_forward_ms(net, o.repetitions));
+    }
+  cv::setNumThreads(2);
+  struct Set {
+    std::string name;
+    std::function<agent::SegmentationScores(agent::TextSegmenter&)> run;
+    bool present;
+  };
+  const fs::path icdar = fs::path(o.data) / "icdar2015";
+  std::vector<Set> sets = {
+      {"generated (held out)",
+       [&](agent::TextSegmenter& s) {
+         return agent::evaluate_on_pairs(s, o.generated, o.max_images);
+       },
+       !o.generated.empty() && fs::is_directory(o.generated)},
+      {"icdar2015 train_sharp",
+       [&](agent::TextSegmenter& s) {
+         return agent::evaluate_on_icdar(s, (icdar / "train_sharp/images").string(),
+                                         (icdar / "train_sharp/gt").string(), o.max_images);
+       },
+       fs::is_directory(icdar / "train_sharp")},
+      {"icdar2015 test_blurred",
+       [&](agent::TextSegmenter& s) {
+         return agent::evaluate_on_icdar(s, (icdar / "test_blurred/images").string(),
+                                         (icdar / "test_blurred/gt").string(), o.max_images);
+       },
+       fs::is_directory(icdar / "test_blurred")}};
+  std::printf("\n%-24s %-9s %7s %7s %7s %7s\n", "set", "input", "images", "R %", "P %", "IoU %");
+  for (const auto& set : sets) {
+    if (!set.present) {
+      std::printf("%-24s (not found: skipped)\n", set.name.c_str());
+      continue;
+    }
+    for (const auto& size : sizes) {
+      agent::DnnTextSegmenter net(model, 2, size);
+      const auto s = set.run(net);
+      std::printf("%-24s %4dx%-4d %7zu %7.2f %7.2f %7.2f\n", set.name.c_str(), size.width,
+                  size.height, s.images, 100 * s.recall, 100 * s.precision, 100 * s.iou);
+    }
+  }
+  std::printf("\nThe paper's MiniNet on COCO-Text: R 52.61, P 36.69, IoU 27.63.\n");
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -169,12 +235,26 @@ int main(int argc, char** argv) {
   evaluate->add_option("--model", eval_model, "ONNX text segmenter for semantic and full")
       ->check(CLI::ExistingFile);
 
+  auto* segmenter = app.add_subcommand("segmenter", "the agent's text segmenter");
+  segmenter->require_subcommand(1);
+  auto* segmenter_eval =
+      segmenter->add_subcommand("eval", "accuracy and CPU time, like the first seed's Table III");
+  SegmenterEvalOptions seg;
+  seg.model = "mininet_text.onnx";
+  segmenter_eval->add_option("--model", seg.model, "ONNX model with its .json");
+  segmenter_eval->add_option("--generated", seg.generated,
+                             "held-out pairs from keyfleet scenario training");
+  segmenter_eval->add_option("--data", seg.data, "the shared data folder (ICDAR photos)");
+  segmenter_eval->add_option("--max-images", seg.max_images, "per set; 0 = all");
+  segmenter_eval->add_option("--repetitions", seg.repetitions, "timed forward passes");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*mission) return run_mission(config_path, drones, run_root);
     if (*generate) return run_scenario_generate(scenario_config, out, threads);
     if (*training) return run_scenario_training(scenario_config, out, count);
     if (*montage) return run_scenario_montage(scenario_dir, out, montage_options);
+    if (*segmenter_eval) return run_segmenter_eval(seg);
     if (*evaluate)
       return run_selection_eval(scenario_dir, eval_drones, eval_agent_config, eval_model);
   } catch (const std::exception& e) {

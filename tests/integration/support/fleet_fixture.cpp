@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <csignal>
 #include <fstream>
 #include <random>
 
@@ -17,6 +18,37 @@ bool wait_until(const std::function<bool()>& condition, std::chrono::millisecond
     ::usleep(20000);  // polling interval of the condition, not a wait for an outcome
   }
   return condition();
+}
+
+void expect_stored_exactly(const std::vector<StoredKeyframe>& stored, const std::string& robot,
+                           const std::vector<std::vector<std::uint8_t>>& expected,
+                           std::uint64_t frame_stride) {
+  std::vector<const StoredKeyframe*> mine;
+  for (const auto& k : stored)
+    if (k.robot_id == robot) mine.push_back(&k);
+  ASSERT_EQ(mine.size(), expected.size()) << robot << " lost or duplicated keyframes";
+  for (std::size_t seq = 0; seq < expected.size(); ++seq) {
+    EXPECT_EQ(mine[seq]->sequence_number, seq);
+    if (frame_stride) {
+      EXPECT_EQ(mine[seq]->frame_index, seq * frame_stride);
+    }
+    EXPECT_TRUE(mine[seq]->image == expected[seq])
+        << robot << " keyframe " << seq << " differs from what the agent encoded";
+  }
+}
+
+void FleetFixture::finish_mission(std::vector<std::unique_ptr<mission::ChildProcess>>& agents,
+                                  mission::ChildProcess& station, std::chrono::seconds timeout) {
+  for (auto& agent : agents) {
+    const auto status = agent->wait_for(timeout);
+    ASSERT_TRUE(status.has_value()) << agent->name() << " did not finish";
+    EXPECT_TRUE(status->ok()) << agent->name() << " " << status->describe() << "\n"
+                              << mission::tail_of_file(agent->log_path(), 20);
+  }
+  station.signal(SIGTERM);
+  const auto station_status = station.wait_for(std::chrono::seconds(30));
+  ASSERT_TRUE(station_status && station_status->ok())
+      << mission::tail_of_file(station.log_path(), 20);
 }
 
 void FleetFixture::SetUp() {

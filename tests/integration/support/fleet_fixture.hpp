@@ -27,6 +27,12 @@ struct StoredKeyframe {
   std::vector<std::uint8_t> image;
 };
 
+// The station stored exactly `expected` for this robot: sequences 0..n-1, each image
+// byte-identical, and (when frame_stride > 0) frame i * frame_stride for sequence i.
+void expect_stored_exactly(const std::vector<StoredKeyframe>& stored, const std::string& robot,
+                           const std::vector<std::vector<std::uint8_t>>& expected,
+                           std::uint64_t frame_stride);
+
 class FleetFixture : public ::testing::Test {
  protected:
   void SetUp() override;
@@ -45,6 +51,9 @@ class FleetFixture : public ::testing::Test {
   std::filesystem::path agent_dir(const std::string& robot_id) const { return run_dir_ / robot_id; }
 
   std::map<std::string, std::int64_t> stored_counts() const;
+  // Every agent exits 0 within `timeout`; then the station stops cleanly on SIGTERM.
+  void finish_mission(std::vector<std::unique_ptr<mission::ChildProcess>>& agents,
+                      mission::ChildProcess& station, std::chrono::seconds timeout);
   std::vector<StoredKeyframe> stored_keyframes() const;
   std::int64_t outbox_pending(const std::string& robot_id) const;
   std::vector<std::string> rejection_reasons() const;

@@ -67,7 +67,9 @@ struct QualityConfig {
 };
 
 struct SemanticConfig {
-  std::string model;    // ONNX text segmenter with its .json beside it
+  // ONNX text segmenter with its .json beside it; a bare name is also looked for in
+  // <bin>/../share/keyfleet/models/ (where the build puts the shipped MiniNet).
+  std::string model = "mininet_text.onnx";
   double border = 0.1;  // border band, as a fraction of the mask's smaller side
   int threads = 1;      // OpenCV DNN threads
 };
@@ -79,7 +81,7 @@ struct SelectorConfig {
     kSemantic,  // best text score over frames spread across the window
     kFull,      // sharpness gate, top third by quality, best text score (first seed)
   };
-  Strategy strategy = Strategy::kQuality;
+  Strategy strategy = Strategy::kFull;
   int density = 1;             // one keyframe per `density` V-SLAM keyframes
   int max_window_frames = 90;  // frames buffered at most (windows are clipped to them)
   TriggerConfig trigger;

@@ -4,6 +4,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/dnn.hpp>
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,12 +31,18 @@ class TextSegmenter {
 // Reads the JSON description beside `model_path` (same name, .json). Throws StartupError.
 SegmenterInfo read_segmenter_info(const std::string& model_path);
 
+// Where a configured model is: the path as given, else (for a relative path) beside the
+// installed executables in <bin>/../share/keyfleet/models/. Throws StartupError if neither.
+std::string locate_model(const std::string& configured);
+
 class DnnTextSegmenter final : public TextSegmenter {
  public:
   // Loads and checks the model with one forward pass at its input size: a missing or corrupt
   // file, or a network that does not take that input or gives the wrong output shape, is a
   // StartupError naming the file.
-  DnnTextSegmenter(const std::string& model_path, int threads);
+  // `input_size` overrides the description's (for evaluations at other resolutions).
+  DnnTextSegmenter(const std::string& model_path, int threads,
+                   std::optional<cv::Size> input_size = std::nullopt);
   std::vector<cv::Mat> segment(const std::vector<cv::Mat>& bgr_frames) override;
   const SegmenterInfo& info() const override { return info_; }
 

@@ -1,0 +1,132 @@
+"""Exports a trained MiniNet checkpoint to ONNX for OpenCV DNN, checks it, describes it.
+
+  /usr/bin/python3 models/mininet/export.py --checkpoint WORK/latest.pt --out models/mininet/mininet_text.onnx
+
+- exports with dynamic batch, height and width (opset 11, native ConvTranspose);
+- rewrites the Identity(initializer) nodes that Debian's torch 1.13 emits (OpenCV 4.6 rejects
+  them) into plain initializers;
+- stores the weights as float16 when --fp16 (OpenCV converts them back on load);
+- runs OpenCV DNN and PyTorch on fixed inputs and fails if they differ by more than --tolerance;
+- writes the JSON description beside the model (what the agent's TextSegmenter reads).
+"""
+import argparse
+import datetime
+import json
+import os
+
+import cv2
+import numpy as np
+import onnx
+import torch
+from onnx import numpy_helper
+
+from mininet import MiniNet, count_flops, count_parameters
+
+
+def fold_identities(model):
+    initializers = {i.name for i in model.graph.initializer}
+    rename = {}
+    kept = []
+    for node in model.graph.node:
+        if node.op_type == "Identity" and node.input[0] in initializers:
+            rename[node.output[0]] = node.input[0]
+        else:
+            kept.append(node)
+    for node in kept:
+        for i, name in enumerate(node.input):
+            node.input[i] = rename.get(name, name)
+    del model.graph.node[:]
+    model.graph.node.extend(kept)
+    return len(rename)
+
+
+def to_fp16(model):
+    for tensor in model.graph.initializer:
+        if tensor.data_type == onnx.TensorProto.FLOAT:
+            array = numpy_helper.to_array(tensor).astype(np.float16)
+            tensor.CopyFrom(numpy_helper.from_array(array, tensor.name))
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--checkpoint", required=True)
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--input-width", type=int, default=512)
+    ap.add_argument("--input-height", type=int, default=384)
+    ap.add_argument("--fp16", action="store_true")
+    ap.add_argument("--tolerance", type=float, default=1e-3)
+    ap.add_argument("--training-data", default="", help="described in the JSON")
+    args = ap.parse_args()
+
+    state = torch.load(args.checkpoint, map_location="cpu")
+    net = MiniNet(2)
+    net.load_state_dict(state["net"])
+    net.eval()
+    net.set_fast_upsampling(False)  # the native transposed convolution for OpenCV
+
+    dummy = torch.zeros(1, 3, 256, 512)
+    torch.onnx.export(net, dummy, args.out, opset_version=11, input_names=["input"],
+                      output_names=["logits"],
+                      dynamic_axes={"input": {0: "N", 2: "H", 3: "W"},
+                                    "logits": {0: "N", 2: "H", 3: "W"}})
+    model = onnx.load(args.out)
+    folded = fold_identities(model)
+    if args.fp16:
+        to_fp16(model)
+    onnx.save(model, args.out)
+
+    # OpenCV DNN against PyTorch on fixed inputs, at two sizes, batch of two.
+    rng = np.random.default_rng(0)
+    worst = 0.0
+    cv_net = cv2.dnn.readNetFromONNX(args.out)
+    for h, w in ((256, 512), (args.input_height, args.input_width)):
+        x = rng.uniform(-0.5, 0.5, size=(2, 3, h, w)).astype(np.float32)
+        with torch.no_grad():
+            expected = net(torch.from_numpy(x)).numpy()
+        cv_net.setInput(x)
+        got = cv_net.forward()
+        worst = max(worst, float(np.abs(got - expected).max()))
+    print(f"folded {folded} Identity nodes; OpenCV vs PyTorch max |diff| = {worst:.2e}")
+    if worst > args.tolerance:
+        raise SystemExit(f"export.py: OpenCV output differs from PyTorch by {worst:.2e}")
+
+    # A reference the C++ tests recompute: a fixed 8-bit pattern through the whole pipeline.
+    h, w = args.input_height, args.input_width
+    ys, xs = np.mgrid[0:h, 0:w]
+    pattern = np.stack([(xs * 7 + ys * 13 + c * 50) % 256 for c in range(3)], axis=0)
+    x = (pattern.astype(np.float32) / 255.0 - 0.5)[None]
+    with torch.no_grad():
+        logits = net(torch.from_numpy(x)).numpy()[0]
+    reference = {"pattern": "pixel(c, y, x) = (7 x + 13 y + 50 c) mod 256, BGR, at the input size",
+                 "text_pixels": int((logits[1] > logits[0]).sum()),
+                 "mean_logits": [float(logits[0].mean()), float(logits[1].mean())]}
+
+    meta = {
+        "format": "keyfleet-segmenter",
+        "version": 1,
+        "description": "MiniNet (ICRA 2019 layout) trained by models/mininet/train.py for text "
+                       "segmentation on generated street views",
+        "input_width": args.input_width,
+        "input_height": args.input_height,
+        "size_multiple": 64,
+        "scale": 1 / 255.0,
+        "mean_bgr": [127.5, 127.5, 127.5],
+        "classes": ["background", "text"],
+        "target_classes": ["text"],
+        "parameters": count_parameters(net),
+        "gflops_512x256": round(count_flops(net, 256, 512) / 1e9, 3),
+        "weights": "float16" if args.fp16 else "float32",
+        "training": {"steps": state["step"], "class_weights": state.get("class_weights"),
+                     "data": args.training_data,
+                     "validation": state.get("validation")},
+        "opencv_max_abs_diff": worst,
+        "reference": reference,
+        "exported": datetime.date.today().isoformat(),
+    }
+    with open(os.path.splitext(args.out)[0] + ".json", "w") as f:
+        json.dump(meta, f, indent=1)
+    print(f"wrote {args.out} ({os.path.getsize(args.out) / 1e6:.1f} MB) and its .json")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,108 @@
+#include "keyfleet/agent/segmenter_eval.hpp"
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "keyfleet/common/error.hpp"
+
+namespace keyfleet::agent {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Counts {
+  double tp = 0, fp = 0, fn = 0;
+  std::size_t images = 0;
+  void add(const cv::Mat& predicted, const cv::Mat& truth) {
+    tp += cv::countNonZero(predicted & truth);
+    fp += cv::countNonZero(predicted & ~truth);
+    fn += cv::countNonZero(~predicted & truth);
+    ++images;
+  }
+  SegmentationScores scores() const {
+    SegmentationScores s;
+    s.images = images;
+    s.recall = tp / std::max(1.0, tp + fn);
+    s.precision = tp / std::max(1.0, tp + fp);
+    s.iou = tp / std::max(1.0, tp + fp + fn);
+    return s;
+  }
+};
+
+std::vector<fs::path> images_in(const std::string& folder, std::size_t max_images) {
+  if (!fs::is_directory(folder)) throw StartupError("no image folder " + folder);
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(folder))
+    if (entry.path().extension() == ".jpg") files.push_back(entry.path());
+  std::sort(files.begin(), files.end());
+  if (max_images && files.size() > max_images) files.resize(max_images);
+  return files;
+}
+
+void score_one(TextSegmenter& segmenter, const cv::Mat& image, const cv::Mat& truth_full,
+               Counts& counts) {
+  const cv::Mat predicted = segmenter.segment({image}).at(0);
+  cv::Mat truth;
+  cv::resize(truth_full, truth, predicted.size(), 0, 0, cv::INTER_NEAREST);
+  counts.add(predicted > 0, truth > 0);
+}
+
+}  // namespace
+
+SegmentationScores evaluate_on_pairs(TextSegmenter& segmenter, const std::string& folder,
+                                     std::size_t max_images) {
+  Counts counts;
+  for (const auto& path : images_in((fs::path(folder) / "images").string(), max_images)) {
+    const fs::path mask = fs::path(folder) / "masks" / (path.stem().string() + ".png");
+    const cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
+    const cv::Mat truth = cv::imread(mask.string(), cv::IMREAD_GRAYSCALE);
+    if (image.empty() || truth.empty()) throw StartupError("unreadable pair " + path.string());
+    score_one(segmenter, image, truth, counts);
+  }
+  return counts.scores();
+}
+
+SegmentationScores evaluate_on_icdar(TextSegmenter& segmenter, const std::string& images,
+                                     const std::string& ground_truth, std::size_t max_images) {
+  Counts counts;
+  for (const auto& path : images_in(images, max_images)) {
+    const cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
+    if (image.empty()) throw StartupError("unreadable image " + path.string());
+    cv::Mat truth = cv::Mat::zeros(image.size(), CV_8UC1);
+    std::ifstream gt(fs::path(ground_truth) / ("gt_" + path.stem().string() + ".txt"));
+    std::string line;
+    while (std::getline(gt, line)) {
+      if (line.size() >= 3 && static_cast<unsigned char>(line[0]) == 0xEF) line = line.substr(3);
+      std::replace(line.begin(), line.end(), ',', ' ');
+      std::istringstream fields(line);
+      std::vector<cv::Point> quad(4);
+      bool ok = true;
+      for (auto& p : quad) ok = ok && static_cast<bool>(fields >> p.x >> p.y);
+      if (ok) cv::fillPoly(truth, std::vector<std::vector<cv::Point>>{quad}, 255);
+    }
+    score_one(segmenter, image, truth, counts);
+  }
+  return counts.scores();
+}
+
+double median_forward_ms(TextSegmenter& segmenter, int repetitions) {
+  const cv::Mat frame(segmenter.info().input_size, CV_8UC3, cv::Scalar(90, 120, 150));
+  segmenter.segment({frame});  // warm-up
+  std::vector<double> ms;
+  for (int i = 0; i < repetitions; ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    segmenter.segment({frame});
+    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                     .count());
+  }
+  std::nth_element(ms.begin(), ms.begin() + long(ms.size() / 2), ms.end());
+  return ms[ms.size() / 2];
+}
+
+}  // namespace keyfleet::agent

@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# The MiniNet recipe, end to end, on this CPU: Debian packages, training data from the
+# scenario generator, training, ONNX export with OpenCV checks, evaluation table.
+#   ./scripts/train_mininet.sh [WORK_DIR]        (default: build/mininet)
+# Environment: STEPS (3000), PAIRS (3000 generated image + mask pairs), KEYFLEET_DATA.
+# Works without ../shared/data (facades are then procedural only; ICDAR rows are skipped).
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+work=${1:-$root/build/mininet}
+steps=${STEPS:-3000}
+pairs=${PAIRS:-3000}
+data_root=${KEYFLEET_DATA:-$root/../shared/data}
+
+"$root/scripts/install_deps.sh"
+packages=(python3-torch python3-onnx python3-opencv python3-numpy)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  sudo_cmd=()
+  [ "$(id -u)" -eq 0 ] || sudo_cmd=(sudo -n)
+  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+"$root/scripts/build.sh"
+keyfleet="${KEYFLEET_BUILD_DIR:-$root/build}/bin/keyfleet"
+[ -d "$data_root" ] || echo "train_mininet: no shared data at $data_root: procedural facades only"
+
+mkdir -p "$work"
+if [ ! -f "$work/pairs/done" ]; then
+  rm -rf "$work/pairs"
+  "$keyfleet" scenario training "$root/configs/scenario_training.yaml" --out "$work/pairs" --count "$pairs"
+  touch "$work/pairs/done"
+fi
+if [ ! -f "$work/heldout/done" ]; then  # other streets (another seed) for the evaluation
+  rm -rf "$work/heldout"
+  sed 's/^seed: .*/seed: 977/' "$root/configs/scenario_training.yaml" > "$work/heldout.yaml"
+  "$keyfleet" scenario training "$work/heldout.yaml" --out "$work/heldout" --count 200
+  touch "$work/heldout/done"
+fi
+# Debian's python3 (torch lives there), not a pyenv one.
+/usr/bin/python3 "$root/models/mininet/train.py" --data "$work/pairs" --work "$work/train" --steps "$steps"
+/usr/bin/python3 "$root/models/mininet/export.py" --checkpoint "$work/train/latest.pt" \
+  --out "$root/models/mininet/mininet_text.onnx" --fp16 \
+  --training-data "$pairs pairs of configs/scenario_training.yaml, $steps steps"
+"$keyfleet" segmenter eval --model "$root/models/mininet/mininet_text.onnx" \
+  --generated "$work/heldout" --data "$data_root"
