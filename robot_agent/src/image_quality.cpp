@@ -29,26 +29,22 @@ constexpr double kMinEdgeFraction = 0.02;
 
 // Fraction of edge pixels that are sharp, for differences taken along one axis.
 double sharp_fraction(const cv::Mat& image, bool along_x, const SharpnessParams& params) {
-  const int rows = image.rows, cols = image.cols;
-  cv::Mat first = cv::Mat::zeros(rows, cols, CV_32F), second = cv::Mat::zeros(rows, cols, CV_32F);
-  const int dx = along_x ? 1 : 0, dy = along_x ? 0 : 1;
-  for (int y = 2 * dy; y < rows - 2 * dy; ++y) {
-    float* f = first.ptr<float>(y);
-    float* s = second.ptr<float>(y);
-    for (int x = 2 * dx; x < cols - 2 * dx; ++x) {
-      auto at = [&](int k) { return float(image.at<std::uint8_t>(y + k * dy, x + k * dx)); };
-      f[x] = std::abs(at(1) - at(-1));
-      s[x] = std::abs(at(2) - 2 * at(0) + at(-2));
-    }
-  }
+  static const cv::Mat first_difference = (cv::Mat_<float>(1, 3) << -1, 0, 1);
+  static const cv::Mat second_difference = (cv::Mat_<float>(1, 5) << 1, 0, -2, 0, 1);
+  cv::Mat first, second;
+  cv::filter2D(image, first, CV_32F, along_x ? first_difference : first_difference.t(), {-1, -1}, 0,
+               cv::BORDER_REPLICATE);
+  cv::filter2D(image, second, CV_32F, along_x ? second_difference : second_difference.t(), {-1, -1},
+               0, cv::BORDER_REPLICATE);
+  first = cv::abs(first);
+  second = cv::abs(second);
   cv::boxFilter(first, first, -1, {3, 3}, {-1, -1}, false);
   cv::boxFilter(second, second, -1, {3, 3}, {-1, -1}, false);
   const cv::Mat edges = first > params.edge_contrast;
   const int edge_count = cv::countNonZero(edges);
   if (edge_count == 0) return 0;
-  cv::Mat ratio;
-  cv::divide(second, first, ratio);
-  const int sharp = cv::countNonZero(edges & (ratio > params.sharp_ratio));
+  const cv::Mat sharp_edges = edges & (second > first * params.sharp_ratio);
+  const int sharp = cv::countNonZero(sharp_edges);
   // A heavily blurred frame keeps few edges, and the few left are noise that looks sharp:
   // below 2 % edge pixels the fraction is scaled down, which keeps the score monotone.
   const double scarcity = std::min(1.0, edge_count / (kMinEdgeFraction * double(image.total())));

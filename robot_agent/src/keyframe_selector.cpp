@@ -26,12 +26,16 @@ HierarchicalSelector::HierarchicalSelector(const SelectorConfig& config,
 HierarchicalSelector::Scored HierarchicalSelector::score(const Frame& frame) {
   Scored s{frame, 0, 0, 0};
   if (config_.strategy == SelectorConfig::Strategy::kVslam) return s;
-  cv::Mat small, grey;
+  // One area-resize of the frame serves both sizes: the sharpness width, then 112 x 112.
+  cv::Mat work, small, grey, work_grey;
   {
     auto scope = clock_->measure("resize");
-    cv::resize(frame.image, small, {config_.quality.size, config_.quality.size}, 0, 0,
-               cv::INTER_AREA);
+    const double f = std::min(1.0, double(config_.quality.sharpness_width) / frame.image.cols);
+    work = f < 1 ? cv::Mat() : frame.image;
+    if (f < 1) cv::resize(frame.image, work, {}, f, f, cv::INTER_AREA);
+    cv::resize(work, small, {config_.quality.size, config_.quality.size}, 0, 0, cv::INTER_AREA);
     cv::cvtColor(small, grey, cv::COLOR_BGR2GRAY);
+    cv::cvtColor(work, work_grey, cv::COLOR_BGR2GRAY);
   }
   {
     auto scope = clock_->measure("blur");
@@ -43,12 +47,8 @@ HierarchicalSelector::Scored HierarchicalSelector::score(const Frame& frame) {
   }
   {
     auto scope = clock_->measure("sharpness");
-    const double f = double(config_.quality.sharpness_width) / frame.image.cols;
-    cv::Mat sharp_grey;
-    cv::cvtColor(frame.image, sharp_grey, cv::COLOR_BGR2GRAY);
-    if (f < 1) cv::resize(sharp_grey, sharp_grey, {}, f, f, cv::INTER_AREA);
     s.sharpness =
-        kumar_sharpness(sharp_grey, {config_.quality.edge_contrast, config_.quality.sharp_ratio});
+        kumar_sharpness(work_grey, {config_.quality.edge_contrast, config_.quality.sharp_ratio});
   }
   return s;
 }

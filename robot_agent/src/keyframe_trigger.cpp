@@ -1,6 +1,7 @@
 #include "keyfleet/agent/keyframe_trigger.hpp"
 
 #include <opencv2/calib3d.hpp>
+#include <opencv2/core/hal/hal.hpp>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -67,8 +68,9 @@ int OrbSlamTrigger::track(const OrbFeatures& current) {
         for (const int j : it->second) {
           const cv::KeyPoint& c = current.keypoints[std::size_t(j)];
           if (std::abs(c.octave - r.octave) > 1 || cv::norm(c.pt - predicted) > radius) continue;
-          const int d = int(cv::norm(reference_.descriptors.row(i), current.descriptors.row(j),
-                                     cv::NORM_HAMMING));
+          const int d = cv::hal::normHamming(reference_.descriptors.ptr<std::uint8_t>(i),
+                                             current.descriptors.ptr<std::uint8_t>(j),
+                                             reference_.descriptors.cols);
           if (d < best_d)
             second_d = best_d, best_d = d, best = j;
           else if (d < second_d)
@@ -83,8 +85,9 @@ int OrbSlamTrigger::track(const OrbFeatures& current) {
   }
   if (from.size() < 8) return int(from.size());
   std::vector<std::uint8_t> inlier;
-  const cv::Mat f = cv::findFundamentalMat(from, to, cv::FM_RANSAC,
-                                           params_.ransac_px * params_.image_scale, 0.99, inlier);
+  // Guided matches are mostly right: a few hundred RANSAC iterations suffice.
+  const cv::Mat f =
+      cv::findFundamentalMat(from, to, cv::FM_RANSAC, params_.ransac_px, 0.99, 200, inlier);
   if (f.empty()) return 0;
   // Constant-velocity model: the median shift of the inliers predicts the next frame.
   std::vector<float> dx, dy;
