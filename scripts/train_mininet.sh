@@ -2,12 +2,12 @@
 # The MiniNet recipe, end to end, on this CPU: Debian packages, training data from the
 # scenario generator, training, ONNX export with OpenCV checks, evaluation table.
 #   ./scripts/train_mininet.sh [WORK_DIR]        (default: build/mininet)
-# Environment: STEPS (3000), PAIRS (3000 generated image + mask pairs), KEYFLEET_DATA.
+# Environment: STEPS (6000), PAIRS (3000 generated image + mask pairs), KEYFLEET_DATA.
 # Works without ../shared/data (facades are then procedural only; ICDAR rows are skipped).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 work=${1:-$root/build/mininet}
-steps=${STEPS:-3000}
+steps=${STEPS:-6000}
 pairs=${PAIRS:-3000}
 data_root=${KEYFLEET_DATA:-$root/../shared/data}
 
