@@ -160,8 +160,6 @@ class Reader {
     throw ConfigError(msg.str());
   }
 
-  const std::string& path() const { return path_; }
-
  private:
   std::string path_or_top() const { return path_.empty() ? "(top level)" : path_; }
 

@@ -66,9 +66,10 @@ std::uint64_t folder_bytes(const fs::path& folder) {
   return bytes;
 }
 
-void save_image(const fs::path& path, const cv::Mat& image, const ScenarioConfig& config) {
+// Saves a frame as JPEG (at `jpeg_quality`) or PNG, by the path's extension.
+void save_image(const fs::path& path, const cv::Mat& image, int jpeg_quality) {
   std::vector<int> params;
-  if (config.image_format == "jpg") params = {cv::IMWRITE_JPEG_QUALITY, config.image_quality};
+  if (path.extension() == ".jpg") params = {cv::IMWRITE_JPEG_QUALITY, jpeg_quality};
   if (!cv::imwrite(path.string(), image, params))
     throw std::runtime_error("cannot write " + path.string());
 }
@@ -109,7 +110,7 @@ void write_drone(const ScenarioConfig& config, const StreetWorld& world, const D
     frame.street_position_m = target.x();
     frame.place_id = world.place_of(target.x());
     frame.words = words_in_view(world, renderer, pose, view.plane_id);
-    save_image(folder / frame.image, image, config);
+    save_image(folder / frame.image, image, config.image_quality);
     truth << frame_truth_line(frame) << '\n';
     const Pose& p = frame.camera_to_world;
     tum << t << ' ' << p.tx << ' ' << p.ty << ' ' << p.tz << ' ' << p.qx << ' ' << p.qy << ' '
@@ -292,11 +293,7 @@ GenerationSummary generate_training_set(const ScenarioConfig& config, const std:
     AppliedEffects applied;
     const double blur = unit(rng) < 0.6 ? unit(rng) * 2 : unit(rng) * 12;
     const cv::Mat image = effects.apply(rendered.radiance, blur, unit(rng) * 180, applied);
-    save_image(root / "images" / frame_name(i, "jpg"), image, [&] {
-      ScenarioConfig c = config;
-      c.image_format = "jpg";
-      return c;
-    }());
+    save_image(root / "images" / frame_name(i, "jpg"), image, config.image_quality);
     cv::imwrite((root / "masks" / frame_name(i, "png")).string(), rendered.text_mask);
   }
   summary.frames = count;
