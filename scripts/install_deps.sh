@@ -9,6 +9,8 @@ PACKAGES=(
   libfastrtps-dev libfastcdr-dev fastddsgen fastdds-tools
   libopencv-dev libopencv-contrib-dev
   libeigen3-dev
+  libboost-graph-dev
+  libtesseract-dev tesseract-ocr-eng
   libprotobuf-dev protobuf-compiler
   libspdlog-dev libfmt-dev
   libyaml-cpp-dev

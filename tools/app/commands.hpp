@@ -1,0 +1,5 @@
+#pragma once
+#include <CLI/CLI.hpp>
+
+// Each group of `keyfleet` subcommands lives in its own file and adds itself here.
+namespace keyfleet::commands {}  // namespace keyfleet::commands
