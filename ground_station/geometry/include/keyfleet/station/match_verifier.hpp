@@ -1,0 +1,50 @@
+#pragma once
+#include <opencv2/core/types.hpp>
+
+#include <cstddef>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "keyfleet/station/vfc.hpp"
+
+namespace keyfleet::station {
+
+struct Verification {
+  std::vector<int> inliers;  // indices of the surviving matches, ascending
+  std::size_t candidates = 0;
+  double inlier_ratio() const;  // 0 when there were no candidates
+};
+
+// The seam between place recognition and geometric verification of its matches.
+// verify() never throws: bad input gives no inliers.
+class MatchVerifier {
+ public:
+  virtual ~MatchVerifier() = default;
+  virtual Verification verify(const std::vector<cv::Point2f>& from,
+                              const std::vector<cv::Point2f>& to) const = 0;
+  virtual std::string name() const = 0;
+};
+
+enum class VerifierKind { kVfc, kRansacHomography, kRansacFundamental };
+
+// OpenCV's robust estimators: usac = true picks cv::USAC_DEFAULT (OpenCV's USAC framework,
+// RANSAC with local optimisation), false the classic cv::RANSAC. Both are deterministic.
+struct RansacParams {
+  double reprojection_px = 3.0;  // inlier threshold in pixels (transfer / epipolar distance)
+  double confidence = 0.99;      // in (0, 1)
+  int max_iterations = 2000;
+  bool usac = true;
+};
+
+void validate(const RansacParams& params);
+
+// Throws StartupError when a parameter is out of range.
+std::unique_ptr<MatchVerifier> make_match_verifier(VerifierKind kind, const VfcParams& vfc = {},
+                                                   const RansacParams& ransac = {});
+
+// "vfc", "ransac_homography", "ransac_fundamental"; anything else throws StartupError.
+VerifierKind parse_verifier_kind(const std::string& text);
+std::string to_string(VerifierKind kind);
+
+}  // namespace keyfleet::station
