@@ -6,12 +6,13 @@
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <iostream>
 #include <limits>
 #include <random>
-#include <set>
+#include <stdexcept>
 #include <vector>
 
 #include "keyfleet/common/error.hpp"
@@ -130,6 +131,11 @@ TEST(SparseVfc, IsDeterministic) {
   EXPECT_EQ(first.inliers, second.inliers);
   EXPECT_EQ(first.iterations, second.iterations);
   EXPECT_EQ(first.sigma2, second.sigma2);
+  for (auto kind : {VerifierKind::kRansacHomography, VerifierKind::kRansacFundamental}) {
+    const auto verifier = make_match_verifier(kind);
+    EXPECT_EQ(verifier->verify(m.from, m.to).inliers, verifier->verify(m.from, m.to).inliers)
+        << verifier->name();
+  }
 }
 
 TEST(SparseVfc, DegenerateInputsGiveAnEmptyResult) {

@@ -28,8 +28,8 @@ class MatchVerifier {
 
 enum class VerifierKind { kVfc, kRansacHomography, kRansacFundamental };
 
-// OpenCV's robust estimators: usac = true picks cv::USAC_DEFAULT (OpenCV's USAC framework,
-// RANSAC with local optimisation), false the classic cv::RANSAC. Both are deterministic.
+// OpenCV's robust estimators: usac = true picks cv::USAC_DEFAULT (OpenCV's USAC framework
+// with its default settings), false the classic cv::RANSAC. Both are seeded, so repeatable.
 struct RansacParams {
   double reprojection_px = 3.0;  // inlier threshold in pixels (transfer / epipolar distance)
   double confidence = 0.99;      // in (0, 1)
