@@ -2,4 +2,6 @@
 #include <CLI/CLI.hpp>
 
 // Each group of `keyfleet` subcommands lives in its own file and adds itself here.
-namespace keyfleet::commands {}  // namespace keyfleet::commands
+namespace keyfleet::commands {
+void add_vocabulary_commands(CLI::App& app);
+}  // namespace keyfleet::commands

@@ -6,6 +6,8 @@
 #include <functional>
 #include <iostream>
 
+#include "commands.hpp"
+
 #include "keyfleet/agent/segmenter_eval.hpp"
 #include "keyfleet/agent/selection_eval.hpp"
 #include "keyfleet/common/config.hpp"
@@ -247,6 +249,8 @@ int main(int argc, char** argv) {
   segmenter_eval->add_option("--data", seg.data, "the shared data folder (ICDAR photos)");
   segmenter_eval->add_option("--max-images", seg.max_images, "per set; 0 = all");
   segmenter_eval->add_option("--repetitions", seg.repetitions, "timed forward passes");
+
+  keyfleet::commands::add_vocabulary_commands(app);
 
   CLI11_PARSE(app, argc, argv);
   try {
