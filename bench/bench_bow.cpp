@@ -1,8 +1,9 @@
 // Place-retrieval costs on 640x480 generated street frames: ORB extraction, BoW transform
 // (k=10, L=4 vocabulary built from the same flight) and inverted-index queries against
-// databases of 100 to 10,000 keyframes. Prints figures; never pass/fail.
+// databases of 100 to 10,000 keyframes, on one core. Prints figures; never pass/fail.
 //   build/bin/bench_bow --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
@@ -31,6 +32,7 @@ struct Flight {
   std::vector<station::FeatureVector> stored_direct;
 
   Flight() {
+    cv::setNumThreads(1);  // figures for one core, as the station's analysis workers use them
     ScenarioConfig config;
     config.seed = 11;
     config.frames_per_drone = 120;

@@ -369,7 +369,7 @@ TEST(BowMatching, DirectIndexMatchesAShiftedAndARotatedCopy) {
     FeatureVector fb;
     v.transform(b.descriptors, &fb);
     const auto matches = match_with_direct_index(a.descriptors, fa, b.descriptors, fb);
-    // Measured: ~390 (shift) and ~300 (rotation) matches, 97-99 % within 3 px.
+    // Measured: 484 (shift) and 298 (12° rotation) matches, 98.1 % and 95.3 % within 3 px.
     EXPECT_GT(matches.size(), 150u);
     EXPECT_GT(consistent_fraction(a, b, matches, motion), 0.9);
     std::set<int> trains;
@@ -378,11 +378,11 @@ TEST(BowMatching, DirectIndexMatchesAShiftedAndARotatedCopy) {
       EXPECT_LE(m.distance, 50.f);
     }
   }
-  // Unrelated images share few nodes' close descriptors.
+  // Unrelated images: 4 matches measured.
   const OrbFeatures c = extract_orb(textured_image(9999), OrbParams{});
   FeatureVector fc;
   v.transform(c.descriptors, &fc);
-  EXPECT_LT(match_with_direct_index(a.descriptors, fa, c.descriptors, fc).size(), 40u);
+  EXPECT_LT(match_with_direct_index(a.descriptors, fa, c.descriptors, fc).size(), 30u);
   // Bad input: no matches, no crash.
   EXPECT_TRUE(match_with_direct_index(cv::Mat(), fa, c.descriptors, fc).empty());
   EXPECT_TRUE(
