@@ -32,7 +32,7 @@ struct Flight {
   std::vector<station::FeatureVector> stored_direct;
 
   Flight() {
-    cv::setNumThreads(1);  // figures for one core, as the station's analysis workers use them
+    cv::setNumThreads(1);  // one-core figures: OpenCV threads would hide CPU from the timer
     ScenarioConfig config;
     config.seed = 11;
     config.frames_per_drone = 120;
