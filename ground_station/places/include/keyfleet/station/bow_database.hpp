@@ -16,6 +16,7 @@ struct BowMatch {
 // Keyframes' bag-of-words vectors for retrieval: an inverted index (word -> entries holding it,
 // with their weights) answers queries touching only the entries that share a word with the
 // query; the direct index of each entry is kept for matching its descriptors afterwards.
+// Not synchronised: concurrent queries are fine, an add needs the caller's exclusive lock.
 class BowDatabase {
  public:
   // Returns the new entry's id (0, 1, 2, ... in order of addition).

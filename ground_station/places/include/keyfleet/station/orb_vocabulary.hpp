@@ -20,6 +20,7 @@ struct VocabularyParams {
 // A DBoW2-style vocabulary tree over 256-bit ORB descriptors: hierarchical k-means++ with
 // Hamming distance and majority-bit centroids, IDF weights log(N / n_i) on the leaves (words).
 // Same descriptors, parameters and seed give the same tree and a byte-identical file.
+// Immutable once built or loaded: const methods may run on several threads at once.
 class OrbVocabulary {
  public:
   static constexpr int kDescriptorBytes = 32;
