@@ -253,6 +253,7 @@ void visit(V& v, DdsSettings& c) {
   v.field("announcement_period_s", c.announcement_period_s, positive());
   v.field("keyframe_history_depth", c.keyframe_history_depth, between(1, 1000));
   v.field("heartbeat_period_s", c.heartbeat_period_s, positive());
+  v.field("max_bytes_per_s", c.max_bytes_per_s, between<std::uint64_t>(0, 100000000000ULL));
 }
 
 template <class V>

@@ -1,9 +1,13 @@
 #include "dds_participant.hpp"
 
+#include <fastdds/rtps/flowcontrol/FlowControllerDescriptor.hpp>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
 #include <fastrtps/utils/IPLocator.h>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+
+#include <algorithm>
+#include <limits>
 
 #include "keyfleet/common/error.hpp"
 
@@ -17,6 +21,11 @@ using eprosima::fastrtps::rtps::Locator_t;
 constexpr std::uint32_t kShmSegmentBytes = 8u << 20;
 constexpr std::uint32_t kUdpBufferBytes = 4u << 20;
 constexpr std::uint32_t kMaxInitialPeersRange = 16;
+// The link cap: periods longer than 10 ms undershoot the cap by up to half (DESIGN.md §3).
+constexpr char kLinkCapName[] = "keyfleet_link_cap";
+constexpr std::uint64_t kLinkCapPeriodMs = 10;
+constexpr std::int32_t kCappedWriterSamples = 2;
+constexpr long double kCappedWriterBlockingS = 0.005;
 
 Locator_t udp_locator(const std::string& address) {
   Locator_t locator;
@@ -52,6 +61,16 @@ fdds::DomainParticipantQos participant_qos(const DdsSettings& s, const std::stri
     for (const auto& peer : s.initial_peers)
       qos.wire_protocol().builtin.initialPeersList.push_back(udp_locator(peer));
   }
+  if (s.max_bytes_per_s > 0) {
+    auto cap = std::make_shared<eprosima::fastdds::rtps::FlowControllerDescriptor>();
+    cap->name = kLinkCapName;
+    cap->scheduler = eprosima::fastdds::rtps::FlowControllerSchedulerPolicy::FIFO;
+    cap->period_ms = kLinkCapPeriodMs;
+    const std::uint64_t per_period = s.max_bytes_per_s * kLinkCapPeriodMs / 1000;
+    cap->max_bytes_per_period = static_cast<std::int32_t>(
+        std::clamp<std::uint64_t>(per_period, 1, std::numeric_limits<std::int32_t>::max()));
+    qos.flow_controllers().push_back(cap);
+  }
   return qos;
 }
 
@@ -80,6 +99,9 @@ Participant::Participant(const DdsSettings& settings, const std::string& name, L
       "DDS participant '{}' on domain {} partition '{}' ({})", name, settings.domain_id,
       settings.partition,
       settings.transport == DdsSettings::Transport::kLocalhost ? "localhost only" : "network");
+  if (settings.max_bytes_per_s > 0)
+    logger_->info("keyframe writer capped at {} bytes/s (flow controller, {} ms periods)",
+                  settings.max_bytes_per_s, kLinkCapPeriodMs);
 }
 
 Participant::~Participant() {
@@ -109,6 +131,17 @@ fdds::DataWriter* Participant::writer(fdds::Topic* topic, Stream stream) {
     case Stream::kKeyframes:
       qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
       qos.history().depth = settings_.keyframe_history_depth;
+      if (settings_.max_bytes_per_s > 0) {
+        // Under a cap a small KEEP_LAST starves and a deep queue only adds latency: keep
+        // two samples and refuse a write quickly, the outbox sends it again later.
+        qos.publish_mode().kind = fdds::ASYNCHRONOUS_PUBLISH_MODE;
+        qos.publish_mode().flow_controller_name = kLinkCapName;
+        qos.history().kind = fdds::KEEP_ALL_HISTORY_QOS;
+        qos.resource_limits().max_samples = kCappedWriterSamples;
+        qos.resource_limits().max_samples_per_instance = kCappedWriterSamples;
+        qos.resource_limits().allocated_samples = kCappedWriterSamples;
+        qos.reliability().max_blocking_time = Duration_t(kCappedWriterBlockingS);
+      }
       break;
     case Stream::kStats:
       qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;

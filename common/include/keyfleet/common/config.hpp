@@ -22,6 +22,10 @@ struct DdsSettings {
   double announcement_period_s = 1.0;      // participant announcements
   int keyframe_history_depth = 5;          // KEEP_LAST depth of the keyframe writer
   double heartbeat_period_s = 0.1;         // reliable writer heartbeat
+  // Keyframe writer's byte-rate cap (asynchronous publish through a FIFO flow controller,
+  // 10 ms periods); 0 = unlimited. When capped, a full writer refuses a keyframe at once
+  // and the outbox sends it again later.
+  std::uint64_t max_bytes_per_s = 0;
 };
 
 struct SourceConfig {

@@ -1,0 +1,130 @@
+// The bandwidth experiment's arithmetic on hand-made cases with known answers.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "keyfleet/common/error.hpp"
+#include "keyfleet/mission/bandwidth_metrics.hpp"
+
+namespace keyfleet::mission {
+namespace {
+
+constexpr std::int64_t kSecond = 1'000'000'000;
+
+DeliveredKeyframe kf(const std::string& robot, double capture_s, double received_s,
+                     std::uint64_t bytes) {
+  return {robot, static_cast<std::int64_t>(capture_s * kSecond),
+          static_cast<std::int64_t>(received_s * kSecond), bytes};
+}
+
+TEST(Percentiles, MedianOfOddAndEvenCounts) {
+  EXPECT_DOUBLE_EQ(median({5, 1, 3}), 3);
+  EXPECT_DOUBLE_EQ(median({4, 1, 3, 2}), 2.5);
+  EXPECT_DOUBLE_EQ(median({7}), 7);
+  EXPECT_DOUBLE_EQ(median({}), 0);
+}
+
+TEST(Percentiles, LinearBetweenClosestRanks) {
+  // 1..21: rank 0.95 * 20 = 19 -> the 20th value exactly.
+  std::vector<double> values;
+  for (int i = 21; i >= 1; --i) values.push_back(i);
+  EXPECT_DOUBLE_EQ(percentile(values, 95), 20);
+  // 0, 10: p95 lies 95 % of the way.
+  EXPECT_DOUBLE_EQ(percentile({10, 0}, 95), 9.5);
+  EXPECT_DOUBLE_EQ(percentile({10, 0}, 0), 0);
+  EXPECT_DOUBLE_EQ(percentile({10, 0}, 100), 10);
+}
+
+TEST(Binning, BytesFallInTheSecondTheyArrived) {
+  const std::vector<DeliveredKeyframe> ks = {kf("a", 0, 10.0, 100), kf("a", 0, 10.999, 50),
+                                             kf("a", 0, 11.0, 7), kf("a", 0, 13.5, 1000),
+                                             kf("a", 0, 9.0, 3)};  // before the origin: bin 0
+  const auto bins = bytes_per_bin(ks, 10 * kSecond, kSecond);
+  ASSERT_EQ(bins.size(), 4u);
+  EXPECT_EQ(bins[0], 153u);
+  EXPECT_EQ(bins[1], 7u);
+  EXPECT_EQ(bins[2], 0u);
+  EXPECT_EQ(bins[3], 1000u);
+  EXPECT_TRUE(bytes_per_bin({}, 0, kSecond).empty());
+  EXPECT_TRUE(bytes_per_bin(ks, 0, 0).empty());
+}
+
+TEST(Throughput, BytesAfterTheFirstOverTheSpan) {
+  // The first sample's 999 bytes arrived before the span began.
+  const std::vector<DeliveredKeyframe> ks = {kf("a", 0, 3.0, 500), kf("a", 0, 1.0, 999),
+                                             kf("a", 0, 5.0, 1500)};
+  EXPECT_DOUBLE_EQ(throughput_bytes_per_s(ks), 2000.0 / 4.0);
+  EXPECT_DOUBLE_EQ(throughput_bytes_per_s({kf("a", 0, 1, 10)}), 0);
+  EXPECT_DOUBLE_EQ(throughput_bytes_per_s({kf("a", 0, 1, 10), kf("a", 0, 1, 10)}), 0);
+}
+
+TEST(Savings, BaselineOverSent) {
+  EXPECT_DOUBLE_EQ(saving_ratio(1000, 250), 4.0);
+  EXPECT_DOUBLE_EQ(saving_ratio(1000, 0), 0);
+  EXPECT_DOUBLE_EQ(saving_ratio(0, 10), 0);
+}
+
+TEST(RobotMetrics, SumsLatenciesAndSavingsOfOneRobot) {
+  const std::vector<DeliveredKeyframe> ks = {kf("a", 1.0, 1.1, 100),
+                                             kf("b", 0, 50, 1'000'000),  // another robot: ignored
+                                             kf("a", 2.0, 2.3, 200), kf("a", 3.0, 3.2, 300)};
+  AgentTotals totals;
+  totals.keyframes_dropped = 2;
+  totals.keyframes_resent = 5;
+  totals.bytes_sent = 600;
+  totals.bytes_resent = 400;
+  totals.stream_all_bytes = 6000;
+  totals.stream_all_estimated = true;
+  totals.vslam_keyframe_bytes = 1200;
+  totals.vslam_keyframe_estimated = false;
+  const auto m = robot_metrics("a", ks, totals, WireBytes{1500, 80});
+  EXPECT_EQ(m.delivered, 3u);
+  EXPECT_EQ(m.payload_bytes, 600u);
+  EXPECT_EQ(m.sent_bytes, 1000u);
+  EXPECT_NEAR(m.latency_median_ms, 200, 1e-6);
+  EXPECT_NEAR(m.latency_p95_ms, 290, 1e-6);  // 200 + 0.9 * (300 - 200)
+  EXPECT_EQ(m.dropped, 2u);
+  EXPECT_EQ(m.resent, 5u);
+  EXPECT_DOUBLE_EQ(m.saving_vs_stream_all, 10.0);
+  EXPECT_DOUBLE_EQ(m.saving_vs_vslam, 2.0);
+  EXPECT_TRUE(m.stream_all_estimated);
+  EXPECT_FALSE(m.vslam_keyframe_estimated);
+  ASSERT_TRUE(m.wire.has_value());
+  EXPECT_EQ(m.wire->tx_bytes, 1500u);
+  EXPECT_NEAR(m.throughput_bytes_per_s, 500.0 / 2.1, 1e-9);
+}
+
+TEST(RobotMetrics, WithoutAgentStatsOrWireCountersNothingIsInvented) {
+  const auto m = robot_metrics("a", {kf("a", 1.0, 1.5, 100)}, std::nullopt, std::nullopt);
+  EXPECT_EQ(m.delivered, 1u);
+  EXPECT_FALSE(m.agent_stats_seen);
+  EXPECT_FALSE(m.wire.has_value());
+  EXPECT_DOUBLE_EQ(m.saving_vs_stream_all, 0);
+  EXPECT_EQ(robot_metrics("nobody", {}, std::nullopt, std::nullopt).delivered, 0u);
+}
+
+TEST(StationRecords, MissingDatabaseIsAStartupErrorNamingTheFile) {
+  try {
+    read_station_records("/nonexistent/station.sqlite");
+    FAIL() << "no error";
+  } catch (const StartupError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/station.sqlite"), std::string::npos);
+  }
+}
+
+TEST(RefusedWrites, CountsTheAgentsNotSentNowWarnings) {
+  const auto path = std::filesystem::temp_directory_path() / "keyfleet_refused_test.log";
+  {
+    std::ofstream log(path);
+    log << "[info] station matched\n"
+        << "[warn] keyframe 3 not sent now (DDS write failed); it stays in the outbox\n"
+        << "[warn] keyframe 4 not sent now (DDS write failed); it stays in the outbox\n";
+  }
+  EXPECT_EQ(count_refused_writes(path.string()), 2u);
+  EXPECT_EQ(count_refused_writes("/nonexistent.log"), 0u);
+  std::filesystem::remove(path);
+}
+
+}  // namespace
+}  // namespace keyfleet::mission
