@@ -1,0 +1,47 @@
+#pragma once
+// The engines behind make_text_reader.
+#include <map>
+#include <memory>
+#include <utility>
+
+#include "keyfleet/agent/text_segmenter.hpp"
+#include "keyfleet/station/text_reader.hpp"
+#include "tesseract_ocr.hpp"
+
+namespace keyfleet::station {
+
+// Tesseract on the whole image: sparse-text page segmentation, word iterator.
+class TesseractReader final : public TextReader {
+ public:
+  explicit TesseractReader(const TextReaderParams& params);
+  std::vector<ReadWord> read(const cv::Mat& bgr) override;
+  std::string name() const override { return "tesseract"; }
+
+ private:
+  TextReaderParams params_;
+  TesseractOcr ocr_;
+};
+
+// MiniNet marks text pixels at a higher resolution than the robot uses; connected
+// components of the mask, joined along lines and padded, are read one by one by Tesseract
+// as single lines.
+class DetectRecogniseReader final : public TextReader {
+ public:
+  explicit DetectRecogniseReader(const TextReaderParams& params);
+  std::vector<ReadWord> read(const cv::Mat& bgr) override;
+  std::string name() const override { return "mininet+tesseract"; }
+
+  // Candidate text boxes in the image's pixels (exposed for evaluation and tests).
+  std::vector<cv::Rect> regions(const cv::Mat& bgr);
+
+ private:
+  agent::DnnTextSegmenter& segmenter_for(cv::Size image_size);
+
+  TextReaderParams params_;
+  std::string model_path_;
+  TesseractOcr ocr_;
+  // The network takes any size that is a multiple of 64; one instance per input size.
+  std::map<std::pair<int, int>, std::unique_ptr<agent::DnnTextSegmenter>> segmenters_;
+};
+
+}  // namespace keyfleet::station

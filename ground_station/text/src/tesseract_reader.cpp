@@ -1,0 +1,29 @@
+#include <algorithm>
+
+#include "image_prep.hpp"
+#include "line_reading.hpp"
+#include "readers.hpp"
+
+namespace keyfleet::station {
+
+TesseractReader::TesseractReader(const TextReaderParams& params)
+    : params_(params), ocr_(params.tessdata_dir, params.language, params.thresholding_method) {}
+
+std::vector<ReadWord> TesseractReader::read(const cv::Mat& bgr) {
+  const cv::Mat grey = to_grey(bgr);
+  if (grey.empty()) return {};
+  std::vector<ReadWord> words;
+  if (std::max(grey.cols, grey.rows) < kMaxCropLongSide) {
+    words = read_line(ocr_, grey, cv::Rect(0, 0, grey.cols, grey.rows), params_.region_line_height);
+  } else {
+    const double scale = reading_scale(grey.size(), params_.min_long_side, params_.max_long_side);
+    words = ocr_.words(rescaled(grey, scale), TesseractOcr::Layout::kSparseText);
+    map_back(words, scale, {0, 0}, cv::Rect(0, 0, grey.cols, grey.rows));
+  }
+  std::vector<ReadWord> kept;
+  for (auto& w : words)
+    if (keep_word(w, params_)) kept.push_back(std::move(w));
+  return kept;
+}
+
+}  // namespace keyfleet::station

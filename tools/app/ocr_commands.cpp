@@ -1,0 +1,149 @@
+// `keyfleet ocr`: the station's text readers on real photos (ICDAR 2015 end-to-end protocol,
+// cropped-word accuracy, time per image) and on one image.
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "commands.hpp"
+#include "keyfleet/station/text_dataset_eval.hpp"
+#include "keyfleet/station/text_reader.hpp"
+
+namespace keyfleet::commands {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct OcrOptions {
+  station::TextReaderParams params;
+  std::vector<std::string> engines;
+  std::string data = "../shared/data";
+  std::size_t max_images = 0;
+  std::string image;
+};
+
+// Runs `body`, reporting a start-up error once, as main does for the other subcommands.
+template <typename Body>
+void reported(Body body) {
+  try {
+    body();
+  } catch (const CLI::Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    std::cerr << "keyfleet: error: " << e.what() << "\n";
+    throw CLI::RuntimeError(1);
+  }
+}
+
+// Median ms per 640x480 keyframe: the train_sharp photos resized to that size.
+double keyframe_ms(station::TextReader& reader, const fs::path& images) {
+  std::vector<double> ms;
+  for (const auto& entry : fs::directory_iterator(images)) {
+    const cv::Mat photo = cv::imread(entry.path().string(), cv::IMREAD_COLOR);
+    if (photo.empty()) continue;
+    cv::Mat keyframe;
+    cv::resize(photo, keyframe, cv::Size(640, 480), 0, 0, cv::INTER_AREA);
+    ms.push_back(station::median_read_ms(reader, keyframe, 1));
+  }
+  if (ms.empty()) return 0.0;
+  std::nth_element(ms.begin(), ms.begin() + long(ms.size() / 2), ms.end());
+  return ms[ms.size() / 2];
+}
+
+void run_eval(const OcrOptions& o) {
+  const fs::path data(o.data);
+  const fs::path sharp = data / "icdar2015/train_sharp", blurred = data / "icdar2015/test_blurred";
+  const fs::path words = data / "words_mmocr";
+  const bool with_blurred = o.max_images > 0 && fs::is_directory(blurred);
+  std::printf(
+      "min confidence %.2f, min word length %d, min long side %d px, thresholding %d, "
+      "segmenter width %d\n",
+      double(o.params.min_confidence), o.params.min_word_length, o.params.min_long_side,
+      o.params.thresholding_method, o.params.segmenter_width);
+  std::printf(
+      "end-to-end: ICDAR 2015 protocol (polygon IoU >= 0.5, case-insensitive text, ### "
+      "ignored); words: exact, case-insensitive\n\n");
+  std::printf("%-18s | %-20s | %-26s | %-10s | %-8s %-8s\n", "engine", "train_sharp R/P/F %",
+              with_blurred ? "test_blurred R/P/F % (n)" : "test_blurred", "words", "ms 1280",
+              "ms 640");
+  const std::vector<std::string> engines =
+      o.engines.empty() ? station::text_reader_engines() : o.engines;
+  for (const auto& engine : engines) {
+    station::TextReaderParams params = o.params;
+    params.engine = engine;
+    const auto reader = station::make_text_reader(params);
+    const auto e2e = station::evaluate_end_to_end(*reader, sharp.string(), o.max_images);
+    char blurred_cell[64] = "(give --max-images)";
+    if (with_blurred) {
+      const auto b = station::evaluate_end_to_end(*reader, blurred.string(), o.max_images);
+      std::snprintf(blurred_cell, sizeof blurred_cell, "%5.1f %5.1f %5.1f (%zu)",
+                    100 * b.counts.recall(), 100 * b.counts.precision(), 100 * b.counts.f_score(),
+                    b.images);
+    }
+    const auto w = station::evaluate_cropped_words(*reader, words.string());
+    std::printf("%-18s | %5.1f %5.1f %5.1f      | %-26s | %2zu/%-2zu     | %8.0f %8.0f\n",
+                engine.c_str(), 100 * e2e.counts.recall(), 100 * e2e.counts.precision(),
+                100 * e2e.counts.f_score(), blurred_cell, w.correct, w.words, e2e.median_ms,
+                keyframe_ms(*reader, sharp / "images"));
+    std::fflush(stdout);
+  }
+}
+
+void run_read(const OcrOptions& o) {
+  const cv::Mat image = cv::imread(o.image, cv::IMREAD_COLOR);
+  if (image.empty()) throw std::runtime_error("cannot read image " + o.image);
+  station::TextReaderParams params = o.params;
+  if (!o.engines.empty()) params.engine = o.engines.front();
+  const auto reader = station::make_text_reader(params);
+  const auto words = reader->read(image);
+  std::printf("%s: %zu words (%s)\n", o.image.c_str(), words.size(), reader->name().c_str());
+  for (const auto& w : words)
+    std::printf("%-24s %5.2f  x %4d y %4d w %4d h %4d\n", w.text.c_str(), double(w.confidence),
+                w.box.x, w.box.y, w.box.width, w.box.height);
+}
+
+void add_reader_options(CLI::App& command, OcrOptions& o) {
+  command.add_option("--min-confidence", o.params.min_confidence, "drop words below (0..1)")
+      ->check(CLI::Range(0.0, 1.0));
+  command.add_option("--min-word-length", o.params.min_word_length, "drop shorter words");
+  command.add_option("--min-word-height", o.params.min_word_height, "drop lower words (px)");
+  command.add_option("--min-long-side", o.params.min_long_side,
+                     "upscale smaller images to this longer side (px, 0 = never)");
+  command.add_option("--segmenter-width", o.params.segmenter_width,
+                     "MiniNet input width for mininet+tesseract (multiple of 64)");
+  command.add_option("--line-height", o.params.region_line_height,
+                     "px a word crop or detected line is scaled to before reading");
+  command.add_option("--thresholding", o.params.thresholding_method,
+                     "Tesseract binarisation: 0 Otsu, 1 tiled Otsu, 2 Sauvola");
+  command.add_option("--tessdata", o.params.tessdata_dir, "Tesseract data folder");
+}
+
+}  // namespace
+
+void add_ocr_commands(CLI::App& app) {
+  auto options = std::make_shared<OcrOptions>();
+  auto* ocr = app.add_subcommand("ocr", "the station's text readers");
+  ocr->require_subcommand(1);
+
+  auto* eval = ocr->add_subcommand("eval", "engines on the shared data (ICDAR 2015 end-to-end)");
+  eval->add_option("--data", options->data, "the shared data folder");
+  eval->add_option("--engine", options->engines, "engines to compare (default: all)");
+  eval->add_option("--max-images", options->max_images,
+                   "images per ICDAR set; also adds test_blurred (0 = train_sharp only)");
+  add_reader_options(*eval, *options);
+  eval->callback([options] { reported([&] { run_eval(*options); }); });
+
+  auto* read = ocr->add_subcommand("read", "print the words read in one image");
+  read->add_option("image", options->image, "image file")->required()->check(CLI::ExistingFile);
+  read->add_option("--engine", options->engines, "engine (default: the library's)")->expected(1);
+  add_reader_options(*read, *options);
+  read->callback([options] { reported([&] { run_read(*options); }); });
+}
+
+}  // namespace keyfleet::commands
