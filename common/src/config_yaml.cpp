@@ -381,10 +381,42 @@ void visit(V& v, MissionConfig& c) {
 }
 
 template <class V>
+template <class V>
+void visit(V& v, TextReadingConfig& c) {
+  v.field("enabled", c.enabled);
+  v.field("engine", c.engine);
+  v.field("tessdata_dir", c.tessdata_dir);
+  v.field("language", c.language);
+  v.field("min_confidence", c.min_confidence, between(0.0, 1.0));
+}
+
+template <class V>
+void visit(V& v, PlaceRecognitionConfig& c) {
+  v.field("enabled", c.enabled);
+  v.field("vocabulary", c.vocabulary);
+  v.field("orb_features", c.orb_features, between(100, 20000));
+  v.field("candidates", c.candidates, between(1, 100));
+  v.field("min_inliers", c.min_inliers, between(4, 100000));
+  v.field("min_inlier_ratio", c.min_inlier_ratio, between(0.0, 1.0));
+  v.field("verifier", c.verifier,
+          one_of({"vfc", "ransac_homography", "ransac_fundamental"}));
+  v.field("same_robot_exclusion_s", c.same_robot_exclusion_s, between(0.0, 1e6));
+}
+
+template <class V>
+void visit(V& v, AnalysisConfig& c) {
+  v.field("workers", c.workers, between(1, 64));
+  v.field("queue_capacity", c.queue_capacity, between(1, 100000));
+  v.field("drain_timeout_s", c.drain_timeout_s, between(0.0, 3600.0));
+  v.section("text", c.text);
+  v.section("places", c.places);
+}
+
 void visit(V& v, StreetConfig& c) {
   v.field("length_m", c.length_m, between(20.0, 10000.0));
   v.field("width_m", c.width_m, between(4.0, 200.0));
   v.field("facade_height_m", c.facade_height_m, between(2.0, 200.0));
+  v.section("analysis", c.analysis);
   v.field("building_min_width_m", c.building_min_width_m, between(1.0, 500.0));
   v.field("building_max_width_m", c.building_max_width_m, between(1.0, 500.0));
   v.field("sign_probability", c.sign_probability, between(0.0, 1.0));

@@ -2,14 +2,19 @@
 #include <CLI/CLI.hpp>
 
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 
 #include "keyfleet/common/clock.hpp"
 #include "keyfleet/common/dds_transport.hpp"
 #include "keyfleet/common/process_options.hpp"
 #include "keyfleet/common/shutdown_signal.hpp"
+#include "keyfleet/station/analysis_exports.hpp"
+#include "keyfleet/station/analysis_setup.hpp"
 #include "keyfleet/station/bandwidth_report.hpp"
 #include "keyfleet/station/ground_station.hpp"
+#include "keyfleet/station/keyframe_analyzer.hpp"
+#include "keyfleet/station/station_analysis.hpp"
 
 namespace {
 
@@ -30,6 +35,25 @@ int run(const ProcessOptions& options) {
   station::MissionLog mission_log((fs::path(options.run_dir) / config.mission_log).string());
   auto link = make_dds_station_link(config.dds, logger);
   station::GroundStation station(config.limits, store, mission_log, *link, logger);
+
+  // Analysis behind the reader: engines first (start-up errors surface here), then the pool.
+  const AnalysisConfig& analysis_config = config.analysis;
+  auto places = station::make_configured_place_recognizer(analysis_config.places);
+  std::vector<station::AnalysisPool::Step> steps;
+  for (int i = 0; i < analysis_config.workers; ++i) {
+    auto analyzer = std::make_shared<station::KeyframeAnalyzer>(
+        station::make_configured_text_reader(analysis_config.text), places.get(), analysis_config,
+        logger);
+    steps.push_back([analyzer](const station::AnalysisJob& job) { return analyzer->analyse(job); });
+  }
+  station::AnalysisStore analysis_store(store.path());
+  station::TopoMap map;
+  station::AnalysisPool pool(std::move(steps),
+                             static_cast<std::size_t>(analysis_config.queue_capacity), logger);
+  station::StationAnalysis analysis(store, analysis_store, map, pool, logger);
+  analysis.restore(places.get());
+  station.on_stored([&analysis](const Keyframe& k) { analysis.on_stored(k); });
+
   mission_log.event("station started", wall_time_ns());
   logger->info("station ready: {} keyframe(s) already in {}", store.keyframe_count(), store.path());
 
@@ -39,6 +63,7 @@ int run(const ProcessOptions& options) {
   auto next_report = Clock::now() + report_period;
   while (!shutdown.stop.requested()) {
     station.step(std::chrono::milliseconds(100));
+    analysis.step();
     if (Clock::now() >= next_report) {
       const auto report = station::build_bandwidth_report(store.totals());
       logger->info("{} robot(s), {} keyframes stored, {} bytes received", report.robots.size(),
@@ -49,9 +74,20 @@ int run(const ProcessOptions& options) {
   // Drain what already arrived before leaving.
   while (station.step(std::chrono::milliseconds(0)) > 0) {
   }
+  const auto drain_timeout =
+      std::chrono::milliseconds(static_cast<long>(analysis_config.drain_timeout_s * 1000));
+  if (!analysis.drain(drain_timeout)) {
+    logger->warn("analysis not finished within {} s; the rest is analysed at the next start",
+                 analysis_config.drain_timeout_s);
+  }
+  pool.stop();
+  analysis.step();
   mission_log.event("station stopped", wall_time_ns());
-  const std::string table = station::write_bandwidth_report(
+  std::string table = station::write_bandwidth_report(
       station::build_bandwidth_report(store.totals()), options.run_dir);
+  table += "\n" + station::write_analysis_exports(analysis_store, map, analysis.summary(),
+                                                  options.run_dir);
+  std::ofstream(fs::path(options.run_dir) / "report.txt") << table;
   std::cout << table << std::flush;
   logger->info("stopped by signal {}; report in {}", shutdown.received(),
                (fs::path(options.run_dir) / "report.json").string());

@@ -37,6 +37,7 @@ KeyframeAck GroundStation::handle(const ReceivedKeyframe& received, std::int64_t
     return ack;
   }
   log_.keyframe(k, received.serialized_bytes, now_ns);
+  if (on_stored_) on_stored_(k);
   logger_->debug("stored keyframe {} from {} ({} bytes)", k.sequence_number, k.robot_id,
                  received.serialized_bytes);
   return ack;

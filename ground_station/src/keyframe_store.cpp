@@ -234,4 +234,23 @@ std::uint64_t KeyframeStore::keyframe_count() const {
   return as_uint(query.int64(0));
 }
 
+std::vector<StoredKeyframeInfo> KeyframeStore::keyframe_index() const {
+  auto query = db_.prepare(
+      "SELECT robot_id, sequence_number, capture_time_ns, pose_tx, pose_ty, pose_tz, pose_qx, "
+      "pose_qy, pose_qz, pose_qw FROM keyframes ORDER BY received_ns");
+  std::vector<StoredKeyframeInfo> out;
+  while (query.step()) {
+    StoredKeyframeInfo k;
+    k.robot_id = query.text(0);
+    k.sequence = as_uint(query.int64(1));
+    k.capture_time_ns = query.int64(2);
+    if (!query.is_null(3)) {
+      k.pose = Pose{query.real(3), query.real(4), query.real(5), query.real(6),
+                    query.real(7), query.real(8), query.real(9)};
+    }
+    out.push_back(std::move(k));
+  }
+  return out;
+}
+
 }  // namespace keyfleet::station

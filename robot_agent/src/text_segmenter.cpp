@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/common/model_files.hpp"
 
 namespace keyfleet::agent {
 
@@ -45,17 +46,7 @@ SegmenterInfo read_segmenter_info(const std::string& model_path) {
 }
 
 std::string locate_model(const std::string& configured) {
-  namespace fs = std::filesystem;
-  if (fs::is_regular_file(configured)) return configured;
-  std::error_code error;
-  const fs::path self = fs::read_symlink("/proc/self/exe", error);
-  if (!error && fs::path(configured).is_relative()) {
-    const fs::path installed =
-        self.parent_path().parent_path() / "share" / "keyfleet" / "models" / configured;
-    if (fs::is_regular_file(installed)) return installed.string();
-  }
-  throw StartupError("segmenter: model '" + configured + "' not found (as given, or in " +
-                     (self.parent_path().parent_path() / "share/keyfleet/models").string() + ")");
+  return locate_model_file(configured, "segmenter model");
 }
 
 DnnTextSegmenter::DnnTextSegmenter(const std::string& model_path, int threads,

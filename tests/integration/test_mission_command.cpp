@@ -35,7 +35,7 @@ class MissionCommand : public FleetFixture {
       << "\nagent:\n  source: {kind: generated, realtime: false, max_frames: 40, width: 320, "
          "height: 240}\n  selector: {strategy: vslam, trigger: {kind: stride, stride: 10}}\n  dds: "
          "{lease_duration_s: 2, "
-         "announcement_period_s: 0.5}\n";
+         "announcement_period_s: 0.5}\nstation: {analysis: {drain_timeout_s: 2}}\n";
     return y.str();
   }
 };
@@ -74,7 +74,8 @@ TEST_F(MissionCommand, GeneratesAScenarioAndReplaysEachDroneWithItsPoses) {
   y << "name: scen\nscenario: scenario.yaml\nrun_root: " << (run_dir_ / "runs").string()
     << "\nagent:\n  source: {realtime: false}\n  selector: {strategy: vslam, trigger: {kind: "
        "stride, stride: 10}}\n"
-       "  dds: {lease_duration_s: 2, announcement_period_s: 0.5}\n";
+       "  dds: {lease_duration_s: 2, announcement_period_s: 0.5}\n"
+       "station: {analysis: {drain_timeout_s: 2}}\n";
   const auto [status, output] = run_mission(y.str());
   ASSERT_TRUE(status.ok()) << output;
   EXPECT_TRUE(std::regex_search(output, std::regex(R"(drone_0\s+3\s+0\s)"))) << output;

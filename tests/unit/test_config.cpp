@@ -197,6 +197,15 @@ TEST(ConfigBadValue, StationDomainIdOutOfRangeNamesKey) {
   EXPECT_NE(message.find("must be between 0 and 232"), std::string::npos) << message;
 }
 
+TEST(ConfigBadValue, StationUnknownVerifierNamesKeyAndChoices) {
+  const std::string message = config_error_of([] {
+    parse_station_config("analysis:\n  places:\n    verifier: magic\n", "station.yaml");
+  });
+  EXPECT_NE(message.find("station.yaml:3: analysis.places.verifier"), std::string::npos)
+      << message;
+  EXPECT_NE(message.find("ransac_homography"), std::string::npos) << message;
+}
+
 TEST(ConfigBadValue, MissionOptionalDomainIdIsRangeChecked) {
   const std::string message = config_error_of([] {
     parse_mission_config("domain_id: 300\nagent:\n  source:\n    max_frames: 5\n", "mission.yaml");
@@ -338,9 +347,17 @@ TEST(ConfigRoundTrip, StationToYamlParsesBackToTheSameValues) {
   c.log_level = "warn";
   c.dds.partition = "lab";
   c.dds.lease_duration_s = 9.5;
+  c.analysis.workers = 2;
+  c.analysis.text.enabled = false;
+  c.analysis.places.verifier = "ransac_fundamental";
+  c.analysis.places.min_inliers = 45;
 
   const std::string yaml = to_yaml(c);
   const StationConfig back = parse_station_config(yaml, "round-trip");
+  EXPECT_EQ(back.analysis.workers, 2) << yaml;
+  EXPECT_FALSE(back.analysis.text.enabled);
+  EXPECT_EQ(back.analysis.places.verifier, "ransac_fundamental");
+  EXPECT_EQ(back.analysis.places.min_inliers, 45);
   EXPECT_EQ(back.limits.max_image_bytes, c.limits.max_image_bytes) << yaml;
   EXPECT_EQ(back.limits.max_width, c.limits.max_width);
   EXPECT_EQ(back.limits.max_height, c.limits.max_height);

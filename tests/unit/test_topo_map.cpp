@@ -34,8 +34,8 @@ std::set<std::pair<std::uint64_t, std::uint64_t>> temporal_pairs(const TopoMap& 
   const nlohmann::json exported = map.to_json();
   for (const auto& e : exported["edges"]) {
     if (e["kind"] != "temporal") continue;
-    pairs.emplace(map.node(e["source"].get<NodeId>()).sequence,
-                  map.node(e["target"].get<NodeId>()).sequence);
+    pairs.emplace(map.node(e["source"].get<MapNodeId>()).sequence,
+                  map.node(e["target"].get<MapNodeId>()).sequence);
   }
   return pairs;
 }
@@ -68,7 +68,7 @@ TEST(TopoMap, OrdersByCaptureTimeNotSequence) {
 
 TEST(TopoMap, RobotsHaveSeparateChainsAndDuplicatesAreIgnored) {
   TopoMap map;
-  const NodeId a = map.add_keyframe(keyframe("r1", 1));
+  const MapNodeId a = map.add_keyframe(keyframe("r1", 1));
   map.add_keyframe(keyframe("r2", 1));
   map.add_keyframe(keyframe("r1", 2));
   map.add_keyframe(keyframe("r2", 2));
@@ -79,7 +79,7 @@ TEST(TopoMap, RobotsHaveSeparateChainsAndDuplicatesAreIgnored) {
   EXPECT_EQ(map.node_count(), 5u);
   EXPECT_EQ(map.edge_count(EdgeKind::kTemporal), 3u);  // r1: 1, r2: 2
   EXPECT_TRUE(map.node(a).words.empty());
-  EXPECT_EQ(map.find("r2", 3), NodeId{4});
+  EXPECT_EQ(map.find("r2", 3), MapNodeId{4});
   EXPECT_FALSE(map.find("r3", 1).has_value());
   EXPECT_FALSE(map.find("r1", 7).has_value());
   EXPECT_THROW(map.node(42), std::out_of_range);
@@ -87,10 +87,10 @@ TEST(TopoMap, RobotsHaveSeparateChainsAndDuplicatesAreIgnored) {
 
 TEST(TopoMap, PlaceMatchesWithinAndAcrossRobotsAreCountedOnce) {
   TopoMap map;
-  const NodeId r1a = map.add_keyframe(keyframe("r1", 1));
-  const NodeId r1b = map.add_keyframe(keyframe("r1", 2));
-  const NodeId r1c = map.add_keyframe(keyframe("r1", 3));
-  const NodeId r2a = map.add_keyframe(keyframe("r2", 1));
+  const MapNodeId r1a = map.add_keyframe(keyframe("r1", 1));
+  const MapNodeId r1b = map.add_keyframe(keyframe("r1", 2));
+  const MapNodeId r1c = map.add_keyframe(keyframe("r1", 3));
+  const MapNodeId r2a = map.add_keyframe(keyframe("r2", 1));
   const PlaceLink link{40, 0.5, 0.2};
   EXPECT_TRUE(map.add_place_match(r1c, r1a, link));  // loop closure within r1
   EXPECT_TRUE(map.add_place_match(r1b, r2a, link));
@@ -101,14 +101,14 @@ TEST(TopoMap, PlaceMatchesWithinAndAcrossRobotsAreCountedOnce) {
   EXPECT_EQ(map.edge_count(EdgeKind::kPlaceMatch), 3u);
   EXPECT_EQ(map.edge_count(EdgeKind::kTemporal), 2u);
   EXPECT_EQ(map.cross_robot_match_count(), 1u);
-  const std::vector<std::pair<NodeId, NodeId>> expected{{r1a, r1b}, {r1a, r1c}, {r1b, r2a}};
+  const std::vector<std::pair<MapNodeId, MapNodeId>> expected{{r1a, r1b}, {r1a, r1c}, {r1b, r2a}};
   EXPECT_EQ(map.place_matches(), expected);
 }
 
 TEST(TopoMap, LateKeyframeKeepsPlaceMatchBetweenItsNeighbours) {
   TopoMap map;
-  const NodeId first = map.add_keyframe(keyframe("r1", 1));
-  const NodeId third = map.add_keyframe(keyframe("r1", 3));
+  const MapNodeId first = map.add_keyframe(keyframe("r1", 1));
+  const MapNodeId third = map.add_keyframe(keyframe("r1", 3));
   ASSERT_TRUE(map.add_place_match(first, third, {}));
   map.add_keyframe(keyframe("r1", 2));  // replaces the 1-3 temporal edge, not the place match
   EXPECT_EQ(map.edge_count(EdgeKind::kTemporal), 2u);
@@ -119,12 +119,12 @@ TEST(TopoMap, LateKeyframeKeepsPlaceMatchBetweenItsNeighbours) {
 
 TEST(TopoMap, RobotsAtPlaceFollowsPlaceMatchesUpToTheHopLimit) {
   TopoMap map;
-  const NodeId a = map.add_keyframe(keyframe("r1", 1));
-  const NodeId b = map.add_keyframe(keyframe("r2", 1));
-  const NodeId c = map.add_keyframe(keyframe("r3", 1));
-  const NodeId d = map.add_keyframe(keyframe("r4", 1));
+  const MapNodeId a = map.add_keyframe(keyframe("r1", 1));
+  const MapNodeId b = map.add_keyframe(keyframe("r2", 1));
+  const MapNodeId c = map.add_keyframe(keyframe("r3", 1));
+  const MapNodeId d = map.add_keyframe(keyframe("r4", 1));
   map.add_keyframe(keyframe("r1", 2));  // temporal neighbour of a: not a place hop
-  const NodeId e = map.add_keyframe(keyframe("r5", 1));
+  const MapNodeId e = map.add_keyframe(keyframe("r5", 1));
   map.add_place_match(a, b, {});
   map.add_place_match(b, c, {});
   map.add_place_match(c, d, {});
@@ -139,13 +139,13 @@ TEST(TopoMap, RobotsAtPlaceFollowsPlaceMatchesUpToTheHopLimit) {
 
 TEST(TopoMap, WordsQueryIsCaseInsensitiveAndExact) {
   TopoMap map;
-  const NodeId a = map.add_keyframe(keyframe("r1", 1, {"EXIT", "Lab"}));
-  const NodeId b = map.add_keyframe(keyframe("r2", 1));
+  const MapNodeId a = map.add_keyframe(keyframe("r1", 1, {"EXIT", "Lab"}));
+  const MapNodeId b = map.add_keyframe(keyframe("r2", 1));
   map.add_words(b, {"exit", "EXITS", "exit"});
   map.add_words(77, {"exit"});  // unknown id: ignored
-  EXPECT_EQ(map.nodes_with_word("Exit"), (std::vector<NodeId>{a, b}));
-  EXPECT_EQ(map.nodes_with_word("exits"), (std::vector<NodeId>{b}));
-  EXPECT_EQ(map.nodes_with_word("lab"), (std::vector<NodeId>{a}));
+  EXPECT_EQ(map.nodes_with_word("Exit"), (std::vector<MapNodeId>{a, b}));
+  EXPECT_EQ(map.nodes_with_word("exits"), (std::vector<MapNodeId>{b}));
+  EXPECT_EQ(map.nodes_with_word("lab"), (std::vector<MapNodeId>{a}));
   EXPECT_TRUE(map.nodes_with_word("ex").empty());
   EXPECT_EQ(map.node(b).words, (std::vector<std::string>{"exit", "EXITS"}));
 }
@@ -154,14 +154,14 @@ TEST(TopoMap, ShortestPathCrossesRobotsThroughAPlaceMatch) {
   TopoMap map;
   for (std::uint64_t s = 1; s <= 5; ++s) map.add_keyframe(keyframe("r1", s));
   for (std::uint64_t s = 1; s <= 5; ++s) map.add_keyframe(keyframe("r2", s));
-  const NodeId island = map.add_keyframe(keyframe("r3", 1));
-  const NodeId r1_4 = *map.find("r1", 4);
-  const NodeId r2_2 = *map.find("r2", 2);
+  const MapNodeId island = map.add_keyframe(keyframe("r3", 1));
+  const MapNodeId r1_4 = *map.find("r1", 4);
+  const MapNodeId r2_2 = *map.find("r2", 2);
   map.add_place_match(r1_4, r2_2, {});
-  const NodeId from = *map.find("r1", 5);
-  const NodeId to = *map.find("r2", 1);
-  EXPECT_EQ(map.shortest_path(from, to), (std::vector<NodeId>{from, r1_4, r2_2, to}));
-  EXPECT_EQ(map.shortest_path(from, from), (std::vector<NodeId>{from}));
+  const MapNodeId from = *map.find("r1", 5);
+  const MapNodeId to = *map.find("r2", 1);
+  EXPECT_EQ(map.shortest_path(from, to), (std::vector<MapNodeId>{from, r1_4, r2_2, to}));
+  EXPECT_EQ(map.shortest_path(from, from), (std::vector<MapNodeId>{from}));
   EXPECT_TRUE(map.shortest_path(from, island).empty());
   EXPECT_TRUE(map.shortest_path(from, 1000).empty());
 }

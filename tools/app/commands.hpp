@@ -1,8 +1,27 @@
 #pragma once
 #include <CLI/CLI.hpp>
 
+#include <exception>
+#include <iostream>
+
 // Each group of `keyfleet` subcommands lives in its own file and adds itself here.
 namespace keyfleet::commands {
+
+// Runs a subcommand's callback, reporting an error once; main's own handler only wraps the
+// subcommands it dispatches itself.
+template <typename F>
+void run_reporting(F&& f) {
+  try {
+    f();
+  } catch (const CLI::Error&) {
+    throw;  // an exit code chosen by the command
+  } catch (const std::exception& e) {
+    std::cerr << "keyfleet: error: " << e.what() << "\n";
+    throw CLI::RuntimeError(1);
+  }
+}
+
+void add_station_commands(CLI::App& app);
 void add_vocabulary_commands(CLI::App& app);
 void add_ocr_commands(CLI::App& app);
 }  // namespace keyfleet::commands

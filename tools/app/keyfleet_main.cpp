@@ -250,6 +250,7 @@ int main(int argc, char** argv) {
   segmenter_eval->add_option("--max-images", seg.max_images, "per set; 0 = all");
   segmenter_eval->add_option("--repetitions", seg.repetitions, "timed forward passes");
 
+  keyfleet::commands::add_station_commands(app);
   keyfleet::commands::add_ocr_commands(app);
   keyfleet::commands::add_vocabulary_commands(app);
 

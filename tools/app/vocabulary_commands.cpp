@@ -118,17 +118,6 @@ void run_info(const std::string& path) {
   std::printf("IDF weights in [%.3f, %.3f]\n", double(lo), double(hi));
 }
 
-// Errors are reported here: main's own handler only wraps the subcommands it dispatches.
-template <typename F>
-void reported(F&& f) {
-  try {
-    f();
-  } catch (const std::exception& e) {
-    std::cerr << "keyfleet: error: " << e.what() << "\n";
-    throw CLI::RuntimeError(1);
-  }
-}
-
 }  // namespace
 
 void add_vocabulary_commands(CLI::App& app) {
@@ -157,12 +146,12 @@ void add_vocabulary_commands(CLI::App& app) {
       ->add_option("--min-width", options->orb.min_width,
                    "upscale narrower images to this width before ORB (0 = never)")
       ->check(CLI::Range(0, 8192));
-  build->callback([options] { reported([&] { run_build(*options); }); });
+  build->callback([options] { run_reporting([&] { run_build(*options); }); });
 
   auto file = std::make_shared<std::string>();
   auto* info = vocabulary->add_subcommand("info", "describe a vocabulary file");
   info->add_option("file", *file, "vocabulary file")->required()->check(CLI::ExistingFile);
-  info->callback([file] { reported([&] { run_info(*file); }); });
+  info->callback([file] { run_reporting([&] { run_info(*file); }); });
 }
 
 }  // namespace keyfleet::commands

@@ -28,13 +28,13 @@ const char* to_string(EdgeKind kind) {
   return "unknown";
 }
 
-NodeId TopoMap::add_keyframe(const MapNode& node) {
+MapNodeId TopoMap::add_keyframe(const MapNode& node) {
   const auto key = std::make_pair(node.robot_id, node.sequence);
   if (auto it = by_key_.find(key); it != by_key_.end()) return it->second;
 
   MapNode stored = node;
   stored.words.clear();
-  const NodeId id = boost::add_vertex(stored, graph_);
+  const MapNodeId id = boost::add_vertex(stored, graph_);
   by_key_.emplace(key, id);
   add_words(id, node.words);
 
@@ -43,8 +43,8 @@ NodeId TopoMap::add_keyframe(const MapNode& node) {
   (void)inserted;  // (time, sequence) is unique because (robot, sequence) is new
   const bool has_prev = pos != line.begin();
   const bool has_next = std::next(pos) != line.end();
-  const NodeId prev = has_prev ? std::prev(pos)->second : id;
-  const NodeId next = has_next ? std::next(pos)->second : id;
+  const MapNodeId prev = has_prev ? std::prev(pos)->second : id;
+  const MapNodeId next = has_next ? std::next(pos)->second : id;
   if (has_prev && has_next) remove_temporal_edge(prev, next);
   // Source is always the earlier keyframe, so exports read in capture order.
   if (has_prev) boost::add_edge(prev, id, MapEdge{EdgeKind::kTemporal, {}}, graph_);
@@ -52,7 +52,7 @@ NodeId TopoMap::add_keyframe(const MapNode& node) {
   return id;
 }
 
-void TopoMap::remove_temporal_edge(NodeId a, NodeId b) {
+void TopoMap::remove_temporal_edge(MapNodeId a, MapNodeId b) {
   for (auto [it, end] = boost::out_edges(a, graph_); it != end; ++it) {
     if (boost::target(*it, graph_) == b && graph_[*it].kind == EdgeKind::kTemporal) {
       boost::remove_edge(*it, graph_);
@@ -61,7 +61,7 @@ void TopoMap::remove_temporal_edge(NodeId a, NodeId b) {
   }
 }
 
-void TopoMap::add_words(NodeId id, const std::vector<std::string>& words) {
+void TopoMap::add_words(MapNodeId id, const std::vector<std::string>& words) {
   if (!valid(id)) return;
   auto& stored = graph_[id].words;
   for (const auto& word : words) {
@@ -71,7 +71,7 @@ void TopoMap::add_words(NodeId id, const std::vector<std::string>& words) {
   }
 }
 
-bool TopoMap::add_place_match(NodeId a, NodeId b, const PlaceLink& link) {
+bool TopoMap::add_place_match(MapNodeId a, MapNodeId b, const PlaceLink& link) {
   if (a == b || !valid(a) || !valid(b)) return false;
   for (auto [it, end] = boost::out_edges(a, graph_); it != end; ++it) {
     if (boost::target(*it, graph_) == b && graph_[*it].kind == EdgeKind::kPlaceMatch) return false;
@@ -80,13 +80,13 @@ bool TopoMap::add_place_match(NodeId a, NodeId b, const PlaceLink& link) {
   return true;
 }
 
-std::optional<NodeId> TopoMap::find(const std::string& robot_id, std::uint64_t sequence) const {
+std::optional<MapNodeId> TopoMap::find(const std::string& robot_id, std::uint64_t sequence) const {
   const auto it = by_key_.find({robot_id, sequence});
   if (it == by_key_.end()) return std::nullopt;
   return it->second;
 }
 
-const MapNode& TopoMap::node(NodeId id) const {
+const MapNode& TopoMap::node(MapNodeId id) const {
   if (!valid(id)) throw std::out_of_range("TopoMap: no node " + std::to_string(id));
   return graph_[id];
 }
@@ -99,20 +99,20 @@ std::size_t TopoMap::edge_count(EdgeKind kind) const {
       std::count_if(begin, end, [&](const auto& e) { return graph_[e].kind == kind; }));
 }
 
-std::set<std::string> TopoMap::robots_at_place(NodeId id, int max_place_hops) const {
+std::set<std::string> TopoMap::robots_at_place(MapNodeId id, int max_place_hops) const {
   if (!valid(id)) return {};
   // A hop-limited BFS over place-match edges only; Boost's BFS has no depth limit or edge filter.
   std::vector<int> depth(node_count(), -1);
-  std::deque<NodeId> queue{id};
+  std::deque<MapNodeId> queue{id};
   depth[id] = 0;
   std::set<std::string> robots;
   while (!queue.empty()) {
-    const NodeId u = queue.front();
+    const MapNodeId u = queue.front();
     queue.pop_front();
     robots.insert(graph_[u].robot_id);
     if (depth[u] >= max_place_hops) continue;
     for (auto [it, end] = boost::out_edges(u, graph_); it != end; ++it) {
-      const NodeId v = boost::target(*it, graph_);
+      const MapNodeId v = boost::target(*it, graph_);
       if (graph_[*it].kind != EdgeKind::kPlaceMatch || depth[v] >= 0) continue;
       depth[v] = depth[u] + 1;
       queue.push_back(v);
@@ -121,16 +121,16 @@ std::set<std::string> TopoMap::robots_at_place(NodeId id, int max_place_hops) co
   return robots;
 }
 
-std::vector<NodeId> TopoMap::nodes_with_word(const std::string& word) const {
+std::vector<MapNodeId> TopoMap::nodes_with_word(const std::string& word) const {
   const auto it = word_index_.find(lower(word));
   if (it == word_index_.end()) return {};
   return {it->second.begin(), it->second.end()};
 }
 
-std::vector<NodeId> TopoMap::shortest_path(NodeId from, NodeId to) const {
+std::vector<MapNodeId> TopoMap::shortest_path(MapNodeId from, MapNodeId to) const {
   if (!valid(from) || !valid(to)) return {};
   const std::size_t none = node_count();
-  std::vector<NodeId> parent(node_count(), none);
+  std::vector<MapNodeId> parent(node_count(), none);
   parent[from] = from;
   boost::breadth_first_search(graph_, from,
                               boost::visitor(boost::make_bfs_visitor(boost::record_predecessors(
@@ -138,18 +138,18 @@ std::vector<NodeId> TopoMap::shortest_path(NodeId from, NodeId to) const {
                                       parent.begin(), boost::get(boost::vertex_index, graph_)),
                                   boost::on_tree_edge()))));
   if (parent[to] == none) return {};
-  std::vector<NodeId> path{to};
+  std::vector<MapNodeId> path{to};
   while (path.back() != from) path.push_back(parent[path.back()]);
   std::reverse(path.begin(), path.end());
   return path;
 }
 
-std::vector<std::pair<NodeId, NodeId>> TopoMap::place_matches() const {
-  std::vector<std::pair<NodeId, NodeId>> pairs;
+std::vector<std::pair<MapNodeId, MapNodeId>> TopoMap::place_matches() const {
+  std::vector<std::pair<MapNodeId, MapNodeId>> pairs;
   for (auto [it, end] = boost::edges(graph_); it != end; ++it) {
     if (graph_[*it].kind != EdgeKind::kPlaceMatch) continue;
-    const NodeId a = boost::source(*it, graph_);
-    const NodeId b = boost::target(*it, graph_);
+    const MapNodeId a = boost::source(*it, graph_);
+    const MapNodeId b = boost::target(*it, graph_);
     pairs.emplace_back(std::min(a, b), std::max(a, b));
   }
   std::sort(pairs.begin(), pairs.end());

@@ -56,7 +56,7 @@ void TopoMap::write_graphml(std::ostream& out) const {
 
 nlohmann::json TopoMap::to_json() const {
   auto nodes = nlohmann::json::array();
-  for (NodeId id = 0; id < node_count(); ++id) {
+  for (MapNodeId id = 0; id < node_count(); ++id) {
     const MapNode& n = graph_[id];
     nlohmann::json pose = nullptr;
     if (n.pose) {

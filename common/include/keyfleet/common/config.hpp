@@ -134,9 +134,47 @@ struct StationLimits {
   std::uint32_t max_height = 8192;             //   are rejected before decoding
 };
 
+// Reading the words in received keyframes (the station's TextReader).
+struct TextReadingConfig {
+  bool enabled = true;
+  std::string engine = "tesseract";  // see `keyfleet ocr eval` for the engines and their figures
+  std::string tessdata_dir;          // empty = Debian's tesseract-ocr-eng data
+  std::string language = "eng";
+  double min_confidence = 0.5;  // 0..1; words below are not stored
+};
+
+// Recognising places shared across keyframes and robots (ORB bag of words + verification).
+struct PlaceRecognitionConfig {
+  bool enabled = true;
+  // Vocabulary file from `keyfleet vocabulary build`; a bare name is looked up in
+  // <bin>/../share/keyfleet/models/ like the agent's model.
+  std::string vocabulary = "orb_vocabulary.bin";
+  int orb_features = 1000;
+  int candidates = 4;             // top-k bag-of-words candidates verified geometrically
+  int min_inliers = 30;           // accepted with more inliers than this (second seed)
+  double min_inlier_ratio = 0.25; // and an inlier ratio above this
+  std::string verifier = "vfc";   // vfc | ransac_homography | ransac_fundamental
+  // Keyframes of the same robot closer in time than this are neighbours, not revisits.
+  double same_robot_exclusion_s = 10.0;
+};
+
+// The station's heavier work, behind the DDS reader: a bounded queue and worker threads.
+struct AnalysisConfig {
+  int workers = 1;
+  // Keyframes waiting for analysis; beyond it the oldest waiting one is deferred (its heavy
+  // steps run later, when the queue is empty). A stored keyframe is never dropped.
+  int queue_capacity = 32;
+  // At shutdown the station finishes queued analysis for at most this long; what is left
+  // stays unanalysed in the database and is analysed when the station next starts.
+  double drain_timeout_s = 40.0;
+  TextReadingConfig text;
+  PlaceRecognitionConfig places;
+};
+
 struct StationConfig {
   DdsSettings dds;
   StationLimits limits;
+  AnalysisConfig analysis;
   std::string database = "station.sqlite";  // relative to the run directory
   std::string mission_log = "mission_log.pb";
   double report_period_s = 5.0;  // live bandwidth line in the log

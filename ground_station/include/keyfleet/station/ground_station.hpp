@@ -1,5 +1,6 @@
 #pragma once
 #include <chrono>
+#include <functional>
 #include <memory>
 #include <set>
 
@@ -26,6 +27,10 @@ class GroundStation {
   std::size_t step(std::chrono::milliseconds wait);
 
   const std::set<std::string>& robots() const { return robots_; }
+  // Called once per keyframe newly stored (not for duplicates or rejections), after commit.
+  void on_stored(std::function<void(const Keyframe&)> callback) {
+    on_stored_ = std::move(callback);
+  }
 
  private:
   void note_robot(const std::string& robot_id);
@@ -37,6 +42,7 @@ class GroundStation {
   Logger logger_;
   JpegCodec codec_{90};
   std::set<std::string> robots_;
+  std::function<void(const Keyframe&)> on_stored_;
 };
 
 }  // namespace keyfleet::station

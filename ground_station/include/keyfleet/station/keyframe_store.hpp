@@ -22,6 +22,13 @@ struct RobotTotals {
   std::optional<AgentStats> latest_stats;  // the robot's own account, when received
 };
 
+struct StoredKeyframeInfo {
+  std::string robot_id;
+  std::uint64_t sequence = 0;
+  std::int64_t capture_time_ns = 0;
+  std::optional<Pose> pose;
+};
+
 // The station's durable store: one SQLite file (WAL) with every keyframe (JPEG and
 // metadata) exactly once per (robot, sequence), rejections, and each robot's latest stats.
 class KeyframeStore {
@@ -37,6 +44,7 @@ class KeyframeStore {
 
   std::vector<RobotTotals> totals() const;
   std::uint64_t keyframe_count() const;
+  std::vector<StoredKeyframeInfo> keyframe_index() const;  // oldest received first
   const std::string& path() const { return db_.path(); }
 
  private:

@@ -1,0 +1,124 @@
+// The station's analysis cost on generated street keyframes (640x480 JPEG): place
+// recognition (ORB + bag of words + verification), text reading, both; and the keyframes per
+// second the analysis pool sustains with 1 and 2 workers. Prints figures; never pass/fail.
+//   build/bin/bench_station [--benchmark_repetitions=3 --benchmark_report_aggregates_only=true]
+#include <benchmark/benchmark.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <algorithm>
+#include <filesystem>
+
+#include "keyfleet/common/config.hpp"
+#include "keyfleet/common/image_codec.hpp"
+#include "keyfleet/common/logging.hpp"
+#include "keyfleet/common/process_tuning.hpp"
+#include "keyfleet/scenario/scenario_generator.hpp"
+#include "keyfleet/station/analysis_pool.hpp"
+#include "keyfleet/station/analysis_setup.hpp"
+#include "keyfleet/station/keyframe_analyzer.hpp"
+
+namespace {
+
+using namespace keyfleet;
+using namespace keyfleet::station;
+
+// Keyframes of a 3-drone flight, every 10th frame, as the agents would send them.
+struct Keyframes {
+  std::vector<AnalysisJob> jobs;
+  Keyframes() {
+    ScenarioConfig config;
+    config.frames_per_drone = 200;
+    config.street.length_m = 60;
+    const auto dir = std::filesystem::temp_directory_path() / "keyfleet_bench_station";
+    std::filesystem::remove_all(dir);
+    scenario::generate_scenario(config, dir.string(), null_logger());
+    const JpegCodec codec(90);
+    for (const auto& drone : std::filesystem::directory_iterator(dir)) {
+      if (!drone.is_directory()) continue;
+      std::vector<std::filesystem::path> frames;
+      for (const auto& f : std::filesystem::directory_iterator(drone.path() / "frames"))
+        frames.push_back(f.path());
+      std::sort(frames.begin(), frames.end());
+      for (std::size_t i = 0; i < frames.size(); i += 10) {
+        AnalysisJob job;
+        job.key = {drone.path().filename().string(), i};
+        job.capture_time_ns = static_cast<std::int64_t>(i) * 33'333'333;
+        job.jpeg = codec.encode(cv::imread(frames[i].string(), cv::IMREAD_COLOR));
+        jobs.push_back(std::move(job));
+      }
+    }
+    std::filesystem::remove_all(dir);
+  }
+};
+
+const Keyframes& keyframes() {
+  static Keyframes k;
+  return k;
+}
+
+AnalysisConfig config_with(bool text, bool places) {
+  AnalysisConfig config;
+  config.text.enabled = text;
+  config.places.enabled = places;
+  return config;
+}
+
+// Per keyframe, one thread: arg 0 = places, 1 = text, 2 = both.
+void BM_AnalyseKeyframe(benchmark::State& state) {
+  const AnalysisConfig config = config_with(state.range(0) >= 1, state.range(0) != 1);
+  auto places = make_configured_place_recognizer(config.places);
+  KeyframeAnalyzer analyzer(make_configured_text_reader(config.text), places.get(), config,
+                            null_logger());
+  const auto& jobs = keyframes().jobs;
+  std::size_t i = 0, words = 0;
+  for (auto _ : state) {
+    const AnalysisResult r = analyzer.analyse(jobs[i++ % jobs.size()]);
+    words += r.words.size();
+  }
+  state.counters["words_per_keyframe"] =
+      benchmark::Counter(double(words) / double(state.iterations()));
+}
+BENCHMARK(BM_AnalyseKeyframe)
+    ->ArgName("places0_text1_both2")
+    ->Arg(0)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(40);
+
+// The whole flight through the pool with everything on: keyframes per second sustained.
+void BM_StationThroughput(benchmark::State& state) {
+  const AnalysisConfig config = config_with(true, true);
+  const auto& jobs = keyframes().jobs;
+  for (auto _ : state) {
+    auto places = make_configured_place_recognizer(config.places);
+    std::vector<AnalysisPool::Step> steps;
+    for (int w = 0; w < state.range(0); ++w) {
+      auto analyzer = std::make_shared<KeyframeAnalyzer>(make_configured_text_reader(config.text),
+                                                         places.get(), config, null_logger());
+      steps.push_back([analyzer](const AnalysisJob& job) { return analyzer->analyse(job); });
+    }
+    AnalysisPool pool(std::move(steps), jobs.size(), null_logger());
+    for (const auto& job : jobs) pool.submit(job);
+    pool.wait_until_idle(std::chrono::hours(1));
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * jobs.size()));
+}
+BENCHMARK(BM_StationThroughput)
+    ->ArgName("workers")
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime()
+    ->Iterations(1);
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  keep_image_buffers_in_heap();
+  benchmark::Initialize(&argc, argv);
+  keyframes();  // generate before timing
+  benchmark::RunSpecifiedBenchmarks();
+  return 0;
+}

@@ -1,0 +1,16 @@
+#pragma once
+#include <string>
+
+#include "keyfleet/station/analysis_store.hpp"
+#include "keyfleet/station/station_analysis.hpp"
+#include "keyfleet/station/topo_map.hpp"
+
+namespace keyfleet::station {
+
+// Writes what data tools read directly into `run_dir`: map.graphml, map.json, words.csv,
+// place_matches.csv. Returns a short text summary for the report.
+std::string write_analysis_exports(const AnalysisStore& store, const TopoMap& map,
+                                   const StationAnalysis::Summary& summary,
+                                   const std::string& run_dir);
+
+}  // namespace keyfleet::station

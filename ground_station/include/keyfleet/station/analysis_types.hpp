@@ -1,0 +1,66 @@
+#pragma once
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "keyfleet/common/types.hpp"
+#include "keyfleet/station/orb_extractor.hpp"
+#include "keyfleet/station/text_reader.hpp"
+
+namespace keyfleet::station {
+
+// A stored keyframe, as the station names it everywhere.
+struct KeyframeKey {
+  std::string robot_id;
+  std::uint64_t sequence = 0;
+  bool operator==(const KeyframeKey& o) const {
+    return sequence == o.sequence && robot_id == o.robot_id;
+  }
+  bool operator<(const KeyframeKey& o) const {
+    return std::tie(robot_id, sequence) < std::tie(o.robot_id, o.sequence);
+  }
+};
+
+std::string to_string(const KeyframeKey& key);  // "drone_0#12"
+
+// What the analysis of one stored keyframe needs.
+struct AnalysisJob {
+  KeyframeKey key;
+  std::int64_t capture_time_ns = 0;
+  std::optional<Pose> pose;
+  std::vector<std::uint8_t> jpeg;
+};
+
+// A verified place match: this keyframe shows the place `other` shows.
+struct PlaceMatch {
+  KeyframeKey other;
+  double bow_score = 0;
+  std::size_t matches = 0;  // descriptor matches handed to the verifier
+  std::size_t inliers = 0;
+  double inlier_ratio() const { return matches ? double(inliers) / double(matches) : 0.0; }
+};
+
+enum class AnalysisStatus {
+  kDone,      // text and places analysed
+  kDeferred,  // queue overloaded: heavy steps postponed until the station is idle (or restarts)
+  kFailed,    // the image could not be decoded (it passed validation, so this is unexpected)
+};
+
+struct AnalysisResult {
+  KeyframeKey key;
+  std::int64_t capture_time_ns = 0;
+  AnalysisStatus status = AnalysisStatus::kDone;
+  std::string detail;  // why deferred or failed
+  std::vector<ReadWord> words;
+  std::optional<OrbFeatures> features;
+  std::optional<PlaceMatch> place;  // the best verified match, when one passed
+  std::size_t candidates_checked = 0;
+  double text_ms = 0;
+  double places_ms = 0;
+};
+
+const char* to_string(AnalysisStatus status);
+
+}  // namespace keyfleet::station

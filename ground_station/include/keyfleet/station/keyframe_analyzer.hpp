@@ -1,0 +1,30 @@
+#pragma once
+#include "keyfleet/common/config.hpp"
+#include "keyfleet/common/image_codec.hpp"
+#include "keyfleet/common/logging.hpp"
+#include "keyfleet/station/analysis_types.hpp"
+#include "keyfleet/station/place_recognizer.hpp"
+
+namespace keyfleet::station {
+
+// The station's heavy work on one stored keyframe, as one synchronous step: decode, ORB,
+// place recognition against what came before (then joins the index), text reading.
+// Either part may be absent (disabled). One analyzer per worker thread: TextReaders keep
+// per-engine state; the PlaceRecognizer is shared and thread-safe.
+class KeyframeAnalyzer {
+ public:
+  KeyframeAnalyzer(std::unique_ptr<TextReader> reader, PlaceRecognizer* places,
+                   const AnalysisConfig& config, Logger logger);
+
+  AnalysisResult analyse(const AnalysisJob& job);
+
+ private:
+  std::unique_ptr<TextReader> reader_;
+  PlaceRecognizer* places_;
+  AnalysisConfig config_;
+  OrbParams orb_;
+  Logger logger_;
+  JpegCodec codec_{90};
+};
+
+}  // namespace keyfleet::station

@@ -1,0 +1,57 @@
+#pragma once
+#include <chrono>
+#include <set>
+
+#include "keyfleet/common/logging.hpp"
+#include "keyfleet/station/analysis_pool.hpp"
+#include "keyfleet/station/analysis_store.hpp"
+#include "keyfleet/station/keyframe_store.hpp"
+#include "keyfleet/station/place_recognizer.hpp"
+#include "keyfleet/station/topo_map.hpp"
+
+namespace keyfleet::station {
+
+// Rebuilds the map from the database: every stored keyframe, the words read, the place
+// matches. Returns the number of words.
+std::size_t rebuild_map(const KeyframeStore& keyframes, const AnalysisStore& store, TopoMap& map);
+
+// Adds every analysed keyframe's stored features to the place index; returns how many.
+std::size_t rebuild_place_index(const AnalysisStore& store, PlaceRecognizer& places);
+
+// Ties the analysis together on the station's main thread: stored keyframes become map
+// nodes and analysis jobs; results are saved and linked into the map; when the pool is
+// idle, keyframes left unanalysed (deferred under overload, or interrupted by a restart)
+// are loaded from the database and analysed.
+class StationAnalysis {
+ public:
+  StationAnalysis(KeyframeStore& keyframes, AnalysisStore& store, TopoMap& map, AnalysisPool& pool,
+                  Logger logger);
+
+  // Rebuilds the map and the place index from the database (a restarted station).
+  void restore(PlaceRecognizer* places);
+  void on_stored(const Keyframe& keyframe);
+  // Saves finished results, backfills when idle. Returns the number of results saved.
+  std::size_t step();
+  // Runs step() until nothing is queued or unanalysed, or `timeout` passes.
+  bool drain(std::chrono::milliseconds timeout);
+
+  struct Summary {
+    std::size_t analysed = 0, deferred = 0, failed = 0, words = 0, place_matches = 0,
+                cross_robot_matches = 0;
+  };
+  Summary summary() const;
+
+ private:
+  void apply(const AnalysisResult& result);
+  void backfill();
+
+  KeyframeStore& keyframes_;
+  AnalysisStore& store_;
+  TopoMap& map_;
+  AnalysisPool& pool_;
+  Logger logger_;
+  std::set<KeyframeKey> in_flight_;
+  bool backlog_ = true;  // there may be unanalysed keyframes in the database
+};
+
+}  // namespace keyfleet::station

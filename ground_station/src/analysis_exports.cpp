@@ -1,0 +1,82 @@
+#include "keyfleet/station/analysis_exports.hpp"
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "keyfleet/common/error.hpp"
+
+namespace keyfleet::station {
+namespace {
+
+std::ofstream open_export(const std::filesystem::path& path) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+  return out;
+}
+
+std::string csv_text(const std::string& text) {
+  std::string quoted = "\"";
+  for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
+}  // namespace
+
+std::string write_analysis_exports(const AnalysisStore& store, const TopoMap& map,
+                                   const StationAnalysis::Summary& summary,
+                                   const std::string& run_dir) {
+  namespace fs = std::filesystem;
+  const fs::path dir(run_dir);
+  {
+    auto out = open_export(dir / "map.graphml");
+    map.write_graphml(out);
+  }
+  open_export(dir / "map.json") << map.to_json().dump(1) << "\n";
+
+  const std::vector<StoredWord> words = store.words();
+  std::set<std::string> distinct;
+  {
+    auto out = open_export(dir / "words.csv");
+    out << "robot_id,sequence_number,capture_time_ns,text,confidence,x,y,width,height\n";
+    for (const StoredWord& w : words) {
+      out << w.keyframe.robot_id << ',' << w.keyframe.sequence << ',' << w.capture_time_ns << ','
+          << csv_text(w.text) << ',' << w.confidence << ',' << w.box.x << ',' << w.box.y << ','
+          << w.box.width << ',' << w.box.height << '\n';
+      std::string upper;
+      for (char c : w.text) upper += static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+      distinct.insert(upper);
+    }
+  }
+  {
+    auto out = open_export(dir / "place_matches.csv");
+    out << "robot_id,sequence_number,match_robot_id,match_sequence_number,matches,inliers,"
+           "bow_score\n";
+    for (const StoredPlaceMatch& m : store.place_matches()) {
+      out << m.query.robot_id << ',' << m.query.sequence << ',' << m.match.robot_id << ','
+          << m.match.sequence << ',' << m.matches << ',' << m.inliers << ',' << m.bow_score << '\n';
+    }
+  }
+  std::ostringstream text;
+  text << "Station analysis: " << summary.analysed << " keyframe(s) analysed";
+  if (summary.deferred) text << ", " << summary.deferred << " deferred (analysed at next start)";
+  if (summary.failed) text << ", " << summary.failed << " failed";
+  text << "\n  words read: " << words.size() << " (" << distinct.size() << " distinct)";
+  std::size_t shown = 0;
+  for (const std::string& w : distinct) {
+    text << (shown == 0 ? ": " : ", ") << w;
+    if (++shown == 12) {
+      if (distinct.size() > shown) text << ", ...";
+      break;
+    }
+  }
+  text << "\n  place matches: " << summary.place_matches << " (" << summary.cross_robot_matches
+       << " across robots)\n  map: " << map.node_count() << " keyframes, "
+       << map.edge_count(EdgeKind::kTemporal) << " temporal + "
+       << map.edge_count(EdgeKind::kPlaceMatch) << " place edges -> map.graphml, map.json\n";
+  return text.str();
+}
+
+}  // namespace keyfleet::station

@@ -1,0 +1,97 @@
+#include "keyfleet/station/analysis_pool.hpp"
+
+namespace keyfleet::station {
+
+AnalysisPool::AnalysisPool(std::vector<Step> workers, std::size_t capacity, Logger logger)
+    : capacity_(std::max<std::size_t>(capacity, 1)), logger_(std::move(logger)) {
+  threads_.reserve(workers.size());
+  for (auto& step : workers) threads_.emplace_back([this, step = std::move(step)] { run(step); });
+}
+
+AnalysisPool::~AnalysisPool() { stop(); }
+
+void AnalysisPool::submit(AnalysisJob job) {
+  std::lock_guard lock(mutex_);
+  if (waiting_.size() >= capacity_) {
+    AnalysisJob& oldest = waiting_.front();
+    AnalysisResult deferred;
+    deferred.key = oldest.key;
+    deferred.capture_time_ns = oldest.capture_time_ns;
+    deferred.status = AnalysisStatus::kDeferred;
+    deferred.detail = "analysis queue full (" + std::to_string(capacity_) + " waiting)";
+    logger_->warn("analysis of {} deferred: {}", to_string(oldest.key), deferred.detail);
+    results_.push_back(std::move(deferred));
+    waiting_.pop_front();
+    ++counters_.deferred;
+  }
+  waiting_.push_back(std::move(job));
+  counters_.waiting = waiting_.size();
+  work_ready_.notify_one();
+}
+
+void AnalysisPool::run(const Step& step) {
+  std::unique_lock lock(mutex_);
+  while (true) {
+    work_ready_.wait(lock, [&] { return stopping_ || !waiting_.empty(); });
+    if (stopping_) return;
+    AnalysisJob job = std::move(waiting_.front());
+    waiting_.pop_front();
+    counters_.waiting = waiting_.size();
+    ++counters_.running;
+    lock.unlock();
+    AnalysisResult result;
+    try {
+      result = step(job);
+    } catch (const std::exception& e) {
+      // A step should not throw; if an engine does, the keyframe is marked, not lost.
+      result.key = job.key;
+      result.capture_time_ns = job.capture_time_ns;
+      result.status = AnalysisStatus::kFailed;
+      result.detail = std::string("analysis failed: ") + e.what();
+      logger_->error("analysis of {} failed: {}", to_string(job.key), e.what());
+    }
+    lock.lock();
+    results_.push_back(std::move(result));
+    --counters_.running;
+    ++counters_.analysed;
+    if (waiting_.empty() && counters_.running == 0) became_idle_.notify_all();
+  }
+}
+
+std::vector<AnalysisResult> AnalysisPool::take_results() {
+  std::lock_guard lock(mutex_);
+  std::vector<AnalysisResult> out;
+  out.swap(results_);
+  return out;
+}
+
+bool AnalysisPool::idle() const {
+  std::lock_guard lock(mutex_);
+  return waiting_.empty() && counters_.running == 0;
+}
+
+bool AnalysisPool::wait_until_idle(std::chrono::milliseconds timeout) {
+  std::unique_lock lock(mutex_);
+  return became_idle_.wait_for(lock, timeout,
+                               [&] { return waiting_.empty() && counters_.running == 0; });
+}
+
+AnalysisPool::Counters AnalysisPool::counters() const {
+  std::lock_guard lock(mutex_);
+  return counters_;
+}
+
+void AnalysisPool::stop() {
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_) return;
+    stopping_ = true;
+    waiting_.clear();
+    counters_.waiting = 0;
+  }
+  work_ready_.notify_all();
+  for (auto& t : threads_) t.join();
+  threads_.clear();
+}
+
+}  // namespace keyfleet::station

@@ -1,0 +1,18 @@
+#include "keyfleet/station/analysis_types.hpp"
+
+namespace keyfleet::station {
+
+std::string to_string(const KeyframeKey& key) {
+  return key.robot_id + "#" + std::to_string(key.sequence);
+}
+
+const char* to_string(AnalysisStatus status) {
+  switch (status) {
+    case AnalysisStatus::kDone: return "done";
+    case AnalysisStatus::kDeferred: return "deferred";
+    case AnalysisStatus::kFailed: return "failed";
+  }
+  return "unknown";
+}
+
+}  // namespace keyfleet::station

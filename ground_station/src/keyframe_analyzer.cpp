@@ -1,0 +1,56 @@
+#include "keyfleet/station/keyframe_analyzer.hpp"
+
+#include <opencv2/imgproc.hpp>
+
+#include <chrono>
+
+namespace keyfleet::station {
+namespace {
+
+double elapsed_ms(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+}  // namespace
+
+KeyframeAnalyzer::KeyframeAnalyzer(std::unique_ptr<TextReader> reader, PlaceRecognizer* places,
+                                   const AnalysisConfig& config, Logger logger)
+    : reader_(std::move(reader)), places_(places), config_(config), logger_(std::move(logger)) {
+  orb_.features = config.places.orb_features;
+}
+
+AnalysisResult KeyframeAnalyzer::analyse(const AnalysisJob& job) {
+  AnalysisResult result;
+  result.key = job.key;
+  result.capture_time_ns = job.capture_time_ns;
+  const DecodeResult decoded = codec_.decode(job.jpeg);
+  if (!decoded.ok()) {
+    result.status = AnalysisStatus::kFailed;
+    result.detail = "cannot decode the stored image: " + decoded.error;
+    return result;
+  }
+  const cv::Mat& image = decoded.image;
+  if (places_) {
+    const auto start = std::chrono::steady_clock::now();
+    cv::Mat grey;
+    cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+    OrbFeatures features = extract_orb(grey, orb_);
+    const PlaceOutcome outcome =
+        places_->recognise(features, not_a_recent_neighbour(job.key, job.capture_time_ns,
+                                                            config_.places.same_robot_exclusion_s));
+    result.place = outcome.best;
+    result.candidates_checked = outcome.checked.size();
+    places_->add(job.key, job.capture_time_ns, features);
+    result.features = std::move(features);
+    result.places_ms = elapsed_ms(start);
+  }
+  if (reader_) {
+    const auto start = std::chrono::steady_clock::now();
+    result.words = reader_->read(image);
+    result.text_ms = elapsed_ms(start);
+  }
+  return result;
+}
+
+}  // namespace keyfleet::station

@@ -1,0 +1,150 @@
+#include "keyfleet/station/station_analysis.hpp"
+
+namespace keyfleet::station {
+namespace {
+
+MapNode node_of(const std::string& robot_id, std::uint64_t sequence, std::int64_t capture_time_ns,
+                const std::optional<Pose>& pose) {
+  MapNode node;
+  node.robot_id = robot_id;
+  node.sequence = sequence;
+  node.capture_time_ns = capture_time_ns;
+  node.pose = pose;
+  return node;
+}
+
+}  // namespace
+
+StationAnalysis::StationAnalysis(KeyframeStore& keyframes, AnalysisStore& store, TopoMap& map,
+                                 AnalysisPool& pool, Logger logger)
+    : keyframes_(keyframes), store_(store), map_(map), pool_(pool), logger_(std::move(logger)) {}
+
+std::size_t rebuild_map(const KeyframeStore& keyframes, const AnalysisStore& store, TopoMap& map) {
+  for (const StoredKeyframeInfo& k : keyframes.keyframe_index())
+    map.add_keyframe(node_of(k.robot_id, k.sequence, k.capture_time_ns, k.pose));
+  const std::vector<StoredWord> words = store.words();
+  for (const StoredWord& w : words) {
+    if (auto node = map.find(w.keyframe.robot_id, w.keyframe.sequence))
+      map.add_words(*node, {w.text});
+  }
+  for (const StoredPlaceMatch& m : store.place_matches()) {
+    const auto a = map.find(m.query.robot_id, m.query.sequence);
+    const auto b = map.find(m.match.robot_id, m.match.sequence);
+    const double ratio = m.matches ? double(m.inliers) / double(m.matches) : 0.0;
+    if (a && b) map.add_place_match(*a, *b, PlaceLink{m.inliers, ratio, m.bow_score});
+  }
+  return words.size();
+}
+
+std::size_t rebuild_place_index(const AnalysisStore& store, PlaceRecognizer& places) {
+  std::size_t indexed = 0;
+  for (const auto& f : store.features()) {
+    places.add(f.key, f.capture_time_ns, f.features);
+    ++indexed;
+  }
+  return indexed;
+}
+
+void StationAnalysis::restore(PlaceRecognizer* places) {
+  const std::size_t words = rebuild_map(keyframes_, store_, map_);
+  const std::size_t indexed = places ? rebuild_place_index(store_, *places) : 0;
+  backlog_ = true;
+  if (map_.node_count() > 0) {
+    logger_->info("restored {} keyframe(s), {} word(s), {} place match(es) and {} indexed place(s)",
+                  map_.node_count(), words, map_.place_matches().size(), indexed);
+  }
+}
+
+void StationAnalysis::on_stored(const Keyframe& k) {
+  map_.add_keyframe(node_of(k.robot_id, k.sequence_number, k.capture_time_ns, k.camera_pose));
+  AnalysisJob job;
+  job.key = {k.robot_id, k.sequence_number};
+  job.capture_time_ns = k.capture_time_ns;
+  job.pose = k.camera_pose;
+  job.jpeg = k.image;
+  in_flight_.insert(job.key);
+  pool_.submit(std::move(job));
+}
+
+void StationAnalysis::apply(const AnalysisResult& r) {
+  in_flight_.erase(r.key);
+  try {
+    store_.save(r);
+  } catch (const std::exception& e) {
+    // Left unanalysed in the database: a restarted station analyses it again.
+    logger_->error("could not save the analysis of {}: {}", to_string(r.key), e.what());
+    return;
+  }
+  switch (r.status) {
+    case AnalysisStatus::kDeferred: backlog_ = true; return;
+    case AnalysisStatus::kFailed:
+      logger_->error("analysis of {} failed: {}", to_string(r.key), r.detail);
+      return;
+    case AnalysisStatus::kDone: break;
+  }
+  const auto node = map_.find(r.key.robot_id, r.key.sequence);
+  if (!node) return;
+  std::vector<std::string> words;
+  for (const ReadWord& w : r.words) words.push_back(w.text);
+  if (!words.empty()) map_.add_words(*node, words);
+  if (r.place) {
+    if (const auto other = map_.find(r.place->other.robot_id, r.place->other.sequence)) {
+      map_.add_place_match(
+          *node, *other, PlaceLink{r.place->inliers, r.place->inlier_ratio(), r.place->bow_score});
+      logger_->info("{} shows the place of {} ({} inliers of {} matches{})", to_string(r.key),
+                    to_string(r.place->other), r.place->inliers, r.place->matches,
+                    r.place->other.robot_id != r.key.robot_id ? ", across robots" : "");
+    }
+  }
+  logger_->debug(
+      "analysed {}: {} word(s), {} candidate(s) checked, text {:.0f} ms, places {:.0f} ms",
+      to_string(r.key), r.words.size(), r.candidates_checked, r.text_ms, r.places_ms);
+}
+
+void StationAnalysis::backfill() {
+  const std::vector<KeyframeKey> exclude(in_flight_.begin(), in_flight_.end());
+  const std::vector<KeyframeKey> keys = store_.unanalysed(4, exclude);
+  if (keys.empty()) {
+    backlog_ = false;
+    return;
+  }
+  for (const KeyframeKey& key : keys) {
+    if (auto job = store_.load_job(key)) {
+      in_flight_.insert(key);
+      pool_.submit(std::move(*job));
+    }
+  }
+}
+
+std::size_t StationAnalysis::step() {
+  const std::vector<AnalysisResult> results = pool_.take_results();
+  for (const AnalysisResult& r : results) apply(r);
+  if (backlog_ && pool_.idle()) backfill();
+  return results.size();
+}
+
+bool StationAnalysis::drain(std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (true) {
+    step();
+    if (in_flight_.empty() && !backlog_ && pool_.idle()) return true;
+    const auto now = std::chrono::steady_clock::now();
+    if (now >= deadline) return false;
+    pool_.wait_until_idle(std::min<std::chrono::milliseconds>(
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - now),
+        std::chrono::milliseconds(100)));
+  }
+}
+
+StationAnalysis::Summary StationAnalysis::summary() const {
+  Summary s;
+  s.analysed = store_.count_with_status(AnalysisStatus::kDone);
+  s.deferred = store_.count_with_status(AnalysisStatus::kDeferred);
+  s.failed = store_.count_with_status(AnalysisStatus::kFailed);
+  s.words = store_.words().size();
+  s.place_matches = map_.place_matches().size();
+  s.cross_robot_matches = map_.cross_robot_match_count();
+  return s;
+}
+
+}  // namespace keyfleet::station

@@ -1,0 +1,302 @@
+// The station's analysis around the engines: the bounded pool and its overload policy, the
+// analysis tables (words with FTS5, features, matches), the map they feed, and a restart.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <condition_variable>
+#include <map>
+#include <mutex>
+#include <set>
+
+#include "keyfleet/common/image_codec.hpp"
+#include "keyfleet/common/logging.hpp"
+#include "keyfleet/station/analysis_pool.hpp"
+#include "keyfleet/station/analysis_store.hpp"
+#include "keyfleet/station/keyframe_analyzer.hpp"
+#include "keyfleet/station/keyframe_store.hpp"
+#include "keyfleet/station/station_analysis.hpp"
+#include "test_support.hpp"
+
+namespace keyfleet::station {
+namespace {
+
+using namespace std::chrono_literals;
+
+AnalysisJob job_for(const std::string& robot, std::uint64_t sequence) {
+  AnalysisJob job;
+  job.key = {robot, sequence};
+  job.capture_time_ns = static_cast<std::int64_t>(sequence) * 1'000'000'000;
+  return job;
+}
+
+AnalysisResult done_result(const AnalysisJob& job) {
+  AnalysisResult r;
+  r.key = job.key;
+  r.capture_time_ns = job.capture_time_ns;
+  return r;
+}
+
+// A step that holds every job until released, to fill the queue on purpose.
+class Gate {
+ public:
+  AnalysisResult pass(const AnalysisJob& job) {
+    std::unique_lock lock(mutex_);
+    ++entered_;
+    changed_.notify_all();
+    changed_.wait(lock, [&] { return open_; });
+    return done_result(job);
+  }
+  void open() {
+    std::lock_guard lock(mutex_);
+    open_ = true;
+    changed_.notify_all();
+  }
+  bool wait_entered(int count) {
+    std::unique_lock lock(mutex_);
+    return changed_.wait_for(lock, 10s, [&] { return entered_ >= count; });
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  int entered_ = 0;
+  bool open_ = false;
+};
+
+TEST(AnalysisPool, DefersTheOldestWaitingJobsWhenFullAndLosesNone) {
+  Gate gate;
+  AnalysisPool pool({[&](const AnalysisJob& j) { return gate.pass(j); }}, 3, null_logger());
+  pool.submit(job_for("r", 0));
+  ASSERT_TRUE(gate.wait_entered(1));  // job 0 runs; 1..3 fill the queue; 4..6 push out 1..3
+  for (std::uint64_t s = 1; s <= 6; ++s) pool.submit(job_for("r", s));
+  gate.open();
+  ASSERT_TRUE(pool.wait_until_idle(10s));
+
+  std::map<std::uint64_t, AnalysisStatus> outcome;
+  for (const AnalysisResult& r : pool.take_results()) {
+    EXPECT_TRUE(outcome.emplace(r.key.sequence, r.status).second) << "two results for one job";
+  }
+  ASSERT_EQ(outcome.size(), 7u);
+  for (std::uint64_t s : {0, 4, 5, 6}) EXPECT_EQ(outcome[s], AnalysisStatus::kDone) << s;
+  for (std::uint64_t s : {1, 2, 3}) EXPECT_EQ(outcome[s], AnalysisStatus::kDeferred) << s;
+  EXPECT_EQ(pool.counters().deferred, 3u);
+}
+
+TEST(AnalysisPool, AThrowingStepMarksTheKeyframeFailedAndTheWorkerGoesOn) {
+  AnalysisPool pool({[](const AnalysisJob& j) {
+                      if (j.key.sequence == 1) throw std::runtime_error("engine crashed");
+                      return done_result(j);
+                    }},
+                    8, null_logger());
+  for (std::uint64_t s = 0; s < 3; ++s) pool.submit(job_for("r", s));
+  ASSERT_TRUE(pool.wait_until_idle(10s));
+  std::map<std::uint64_t, AnalysisResult> results;
+  for (auto& r : pool.take_results()) results[r.key.sequence] = r;
+  ASSERT_EQ(results.size(), 3u);
+  EXPECT_EQ(results[1].status, AnalysisStatus::kFailed);
+  EXPECT_NE(results[1].detail.find("engine crashed"), std::string::npos);
+  EXPECT_EQ(results[2].status, AnalysisStatus::kDone);
+}
+
+class AnalysisStoreTest : public ::testing::Test {
+ protected:
+  void store_keyframe(const std::string& robot, std::uint64_t sequence) {
+    Keyframe k = test::make_valid_keyframe(robot, sequence, 128, 96);
+    k.capture_time_ns = static_cast<std::int64_t>(sequence) * 1'000'000'000;
+    keyframes_.store(k, k.image.size() + 100, k.capture_time_ns + 5);
+  }
+  AnalysisResult result_with_words(const std::string& robot, std::uint64_t sequence,
+                                   std::vector<std::string> words) {
+    AnalysisResult r;
+    r.key = {robot, sequence};
+    r.capture_time_ns = static_cast<std::int64_t>(sequence) * 1'000'000'000;
+    int x = 10;
+    for (auto& w : words) {
+      r.words.push_back(ReadWord{w, 0.9f, cv::Rect(x, 20, 50, 16)});
+      x += 60;
+    }
+    return r;
+  }
+
+  test::TempDir dir_;
+  JpegCodec codec_{90};
+  KeyframeStore keyframes_{dir_.file("station.sqlite")};
+  AnalysisStore store_{dir_.file("station.sqlite")};
+};
+
+TEST_F(AnalysisStoreTest, WordsAreSearchableWithRobotTimeKeyframeAndBox) {
+  store_keyframe("drone_0", 3);
+  store_keyframe("drone_1", 7);
+  store_.save(result_with_words("drone_0", 3, {"HOTEL", "Bakery"}));
+  store_.save(result_with_words("drone_1", 7, {"hotel"}));
+
+  const auto hits = store_.search_words("HOTEL");
+  ASSERT_EQ(hits.size(), 2u);  // FTS5's tokenizer folds case
+  std::set<std::string> robots;
+  for (const auto& w : hits) robots.insert(w.keyframe.robot_id);
+  EXPECT_EQ(robots, (std::set<std::string>{"drone_0", "drone_1"}));
+  const auto bakery = store_.search_words("bak*");
+  ASSERT_EQ(bakery.size(), 1u);
+  EXPECT_EQ(bakery[0].keyframe.sequence, 3u);
+  EXPECT_EQ(bakery[0].capture_time_ns, 3'000'000'000);
+  EXPECT_EQ(bakery[0].box, cv::Rect(70, 20, 50, 16));
+  EXPECT_TRUE(store_.search_words("pharmacy").empty());
+}
+
+TEST_F(AnalysisStoreTest, AnalysingAgainReplacesTheWordsInsteadOfDuplicatingThem) {
+  store_keyframe("drone_0", 1);
+  store_.save(result_with_words("drone_0", 1, {"HOTEL"}));
+  store_.save(result_with_words("drone_0", 1, {"HOTEL", "CAFE"}));
+  EXPECT_EQ(store_.search_words("HOTEL").size(), 1u);
+  EXPECT_EQ(store_.words().size(), 2u);
+}
+
+TEST_F(AnalysisStoreTest, UnanalysedListsNeverAnalysedAndDeferredKeyframesOldestFirst) {
+  for (std::uint64_t s = 0; s < 4; ++s) store_keyframe("drone_0", s);
+  store_.save(result_with_words("drone_0", 0, {}));
+  AnalysisResult deferred;
+  deferred.key = {"drone_0", 2};
+  deferred.status = AnalysisStatus::kDeferred;
+  store_.save(deferred);
+
+  const auto pending = store_.unanalysed(10);
+  ASSERT_EQ(pending.size(), 3u);
+  EXPECT_EQ(pending[0].sequence, 1u);
+  EXPECT_EQ(pending[1].sequence, 2u);
+  EXPECT_EQ(pending[2].sequence, 3u);
+  const auto without_in_flight = store_.unanalysed(10, {KeyframeKey{"drone_0", 1}});
+  ASSERT_EQ(without_in_flight.size(), 2u);
+  EXPECT_EQ(without_in_flight[0].sequence, 2u);
+
+  const auto job = store_.load_job({"drone_0", 3});
+  ASSERT_TRUE(job.has_value());
+  EXPECT_FALSE(job->jpeg.empty());
+  EXPECT_TRUE(codec_.decode(job->jpeg).ok());
+  EXPECT_FALSE(store_.load_job({"drone_9", 0}).has_value());
+}
+
+TEST_F(AnalysisStoreTest, FeaturesAndPlaceMatchesRoundTrip) {
+  store_keyframe("drone_0", 1);
+  store_keyframe("drone_1", 2);
+  AnalysisResult r = result_with_words("drone_1", 2, {});
+  OrbFeatures features;
+  features.keypoints = {cv::KeyPoint(10.5f, 20.25f, 31.f, 45.f, 0.5f, 2),
+                        cv::KeyPoint(100.f, 5.f, 44.6f, 90.f, 0.25f, 3)};
+  features.descriptors = cv::Mat(2, 32, CV_8U);
+  cv::randu(features.descriptors, 0, 256);
+  r.features = features;
+  r.place = PlaceMatch{{"drone_0", 1}, 0.31, 120, 64};
+  store_.save(r);
+
+  const auto stored = store_.features();
+  ASSERT_EQ(stored.size(), 1u);
+  EXPECT_EQ(stored[0].key, (KeyframeKey{"drone_1", 2}));
+  ASSERT_EQ(stored[0].features.keypoints.size(), 2u);
+  EXPECT_FLOAT_EQ(stored[0].features.keypoints[0].pt.y, 20.25f);
+  EXPECT_EQ(stored[0].features.keypoints[1].octave, 3);
+  EXPECT_EQ(cv::norm(stored[0].features.descriptors, features.descriptors, cv::NORM_HAMMING), 0);
+  const auto matches = store_.place_matches();
+  ASSERT_EQ(matches.size(), 1u);
+  EXPECT_EQ(matches[0].match, (KeyframeKey{"drone_0", 1}));
+  EXPECT_EQ(matches[0].inliers, 64u);
+}
+
+// Test doubles for the engines: a reader that 'reads' the keyframe's robot-specific word,
+// and a recogniser that matches every keyframe to the first one of another robot.
+class ScriptedReader : public TextReader {
+ public:
+  std::vector<ReadWord> read(const cv::Mat& bgr) override {
+    return {ReadWord{bgr.cols > 100 ? "HOTEL" : "CAFE", 0.8f, cv::Rect(1, 2, 30, 10)}};
+  }
+  std::string name() const override { return "scripted"; }
+};
+
+class FirstOfOtherRobot : public PlaceRecognizer {
+ public:
+  PlaceOutcome recognise(const OrbFeatures&, const PlaceFilter& filter) const override {
+    std::lock_guard lock(mutex_);
+    PlaceOutcome outcome;
+    for (const auto& [key, time] : added_) {
+      if (filter && !filter(key, time)) continue;
+      outcome.best = PlaceMatch{key, 0.5, 100, 60};
+      outcome.checked.push_back(*outcome.best);
+      break;
+    }
+    return outcome;
+  }
+  void add(const KeyframeKey& key, std::int64_t time, const OrbFeatures&) override {
+    std::lock_guard lock(mutex_);
+    added_.emplace_back(key, time);
+  }
+  std::size_t size() const override {
+    std::lock_guard lock(mutex_);
+    return added_.size();
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::vector<std::pair<KeyframeKey, std::int64_t>> added_;
+};
+
+TEST_F(AnalysisStoreTest, StationAnalysisFeedsTheMapAndARestartRestoresIt) {
+  AnalysisConfig config;
+  config.places.same_robot_exclusion_s = 1e6;  // only other robots count as revisits
+  FirstOfOtherRobot places;
+  {
+    KeyframeAnalyzer analyzer(std::make_unique<ScriptedReader>(), &places, config, null_logger());
+    AnalysisPool pool({[&](const AnalysisJob& j) { return analyzer.analyse(j); }}, 16,
+                      null_logger());
+    TopoMap map;
+    StationAnalysis analysis(keyframes_, store_, map, pool, null_logger());
+    analysis.restore(&places);
+    for (const auto& [robot, sequence] :
+         std::vector<std::pair<std::string, std::uint64_t>>{{"a", 0}, {"a", 1}, {"b", 0}}) {
+      Keyframe k = test::make_valid_keyframe(robot, sequence, 128, 96);
+      keyframes_.store(k, k.image.size(), 1);
+      analysis.on_stored(k);
+    }
+    ASSERT_TRUE(analysis.drain(20s));
+    EXPECT_EQ(map.node_count(), 3u);
+    EXPECT_EQ(map.edge_count(EdgeKind::kTemporal), 1u);
+    EXPECT_EQ(map.cross_robot_match_count(), 1u);  // b#0 -> a#0
+    EXPECT_EQ(analysis.summary().analysed, 3u);
+    EXPECT_EQ(store_.search_words("HOTEL").size(), 3u);
+  }
+  // A new station process on the same database.
+  FirstOfOtherRobot restarted_places;
+  AnalysisPool pool({[](const AnalysisJob& j) { return done_result(j); }}, 16, null_logger());
+  TopoMap map;
+  StationAnalysis analysis(keyframes_, store_, map, pool, null_logger());
+  analysis.restore(&restarted_places);
+  EXPECT_EQ(map.node_count(), 3u);
+  EXPECT_EQ(map.edge_count(EdgeKind::kTemporal), 1u);
+  EXPECT_EQ(map.cross_robot_match_count(), 1u);
+  EXPECT_EQ(map.nodes_with_word("hotel").size(), 3u);
+  EXPECT_EQ(restarted_places.size(), 3u);  // the ORB features stored by the first run
+}
+
+TEST_F(AnalysisStoreTest, DeferredKeyframesAreAnalysedOnceTheQueueEmpties) {
+  for (std::uint64_t s = 0; s < 5; ++s) store_keyframe("drone_0", s);
+  for (std::uint64_t s : {1, 3}) {
+    AnalysisResult deferred;
+    deferred.key = {"drone_0", s};
+    deferred.status = AnalysisStatus::kDeferred;
+    store_.save(deferred);
+  }
+  std::atomic<int> analysed{0};
+  AnalysisPool pool({[&](const AnalysisJob& j) {
+                      ++analysed;
+                      return done_result(j);
+                    }},
+                    2, null_logger());
+  TopoMap map;
+  StationAnalysis analysis(keyframes_, store_, map, pool, null_logger());
+  analysis.restore(nullptr);
+  ASSERT_TRUE(analysis.drain(20s));
+  EXPECT_EQ(analysed.load(), 5);  // the deferred two and the three never analysed
+  EXPECT_TRUE(store_.unanalysed(10).empty());
+  EXPECT_EQ(store_.count_with_status(AnalysisStatus::kDone), 5u);
+}
+
+}  // namespace
+}  // namespace keyfleet::station
