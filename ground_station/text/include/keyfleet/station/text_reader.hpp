@@ -26,7 +26,7 @@ class TextReader {
 struct TextReaderParams {
   // "tesseract": Tesseract on the whole image (sparse text); "mininet+tesseract": MiniNet
   // finds text regions, Tesseract reads each as one line. The default won on the measured
-  // end-to-end F (see the README's text-reading table).
+  // end-to-end F (`keyfleet ocr eval`: 32 vs 9 % on ICDAR 2015 train_sharp).
   std::string engine = "tesseract";
   std::string tessdata_dir;  // empty = Debian's /usr/share/tesseract-ocr/5/tessdata
   std::string language = "eng";
