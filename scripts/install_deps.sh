@@ -20,7 +20,9 @@ PACKAGES=(
   libgtest-dev libgmock-dev googletest
   libbenchmark-dev
   procps
+  iproute2
   python3-torch python3-onnx python3-opencv python3-numpy
+  python3-matplotlib
   fonts-dejavu-core fonts-liberation2 fonts-freefont-ttf fonts-urw-base35
 )
 

@@ -492,6 +492,32 @@ void visit(V& v, ScenarioConfig& c) {
   v.section("camera", c.camera);
 }
 
+template <class V>
+void visit(V& v, EvalConfig& c) {
+  v.section("scenario", c.scenario);
+  v.field("scenario_dir", c.scenario_dir);
+  v.field("strategies", c.strategies,
+          Check<std::vector<std::string>>([](const std::vector<std::string>& names) {
+            for (const auto& name : names)
+              if (name != "vslam" && name != "quality" && name != "semantic" && name != "full")
+                return std::string("each must be vslam, quality, semantic or full");
+            return names.empty() ? std::string("must not be empty") : std::string();
+          }));
+  v.field("densities", c.densities, Check<std::vector<double>>([](const std::vector<double>& d) {
+            for (double f : d)
+              if (!(f > 0 && f <= 1)) return std::string("each must be in (0, 1]");
+            return d.empty() ? std::string("must not be empty") : std::string();
+          }));
+  v.field("drones", c.drones);
+  v.section("selector", c.selector);
+  v.section("codec", c.codec);
+  v.field("vocabulary", c.vocabulary);
+  v.field("orb_features", c.orb_features, between(100, 20000));
+  v.field("query_every", c.query_every, between(1, 100000));
+  v.field("place_tolerance_m", c.place_tolerance_m, between(0.01, 10000.0));
+  v.field("ocr_threads", c.ocr_threads, between(1, 64));
+}
+
 // Cross-field rules that a single key cannot express.
 void validate(const AgentConfig& c, const std::string& origin) {
   const auto strategy = c.selector.strategy;
@@ -536,6 +562,11 @@ void validate(const ScenarioConfig& c, const std::string& origin) {
   if (!c.textures.word_list.empty() && !std::filesystem::is_regular_file(c.textures.word_list))
     throw ConfigError(origin + ": textures.word_list: '" + c.textures.word_list +
                       "' does not exist");
+}
+
+// The scenario is only generated (and so only checked) when no scenario_dir is given.
+void validate(const EvalConfig& c, const std::string& origin) {
+  if (c.scenario_dir.empty()) validate(c.scenario, origin + " (scenario)");
 }
 
 YAML::Node parse_yaml(const std::string& text, const std::string& origin) {
@@ -634,9 +665,32 @@ ScenarioConfig load_scenario_config(const std::string& path) {
   return config;
 }
 
+EvalConfig parse_eval_config(const std::string& text, const std::string& origin) {
+  return parse<EvalConfig>(text, origin);
+}
+EvalConfig load_eval_config(const std::string& path) {
+  EvalConfig config;
+  Reader reader(parse_yaml(read_file(path), path), path, "");
+  visit(reader, config);
+  reader.finish();
+  // Paths are relative to the file, as in a scenario file.
+  const auto base = std::filesystem::path(path).parent_path();
+  auto resolve = [&](std::string& p) {
+    if (!p.empty() && std::filesystem::path(p).is_relative())
+      p = (base / p).lexically_normal().string();
+  };
+  resolve(config.scenario_dir);
+  for (auto& folder : config.scenario.textures.photo_folders) resolve(folder);
+  for (auto& folder : config.scenario.textures.optional_photo_folders) resolve(folder);
+  resolve(config.scenario.textures.word_list);
+  validate(config, path);
+  return config;
+}
+
 std::string to_yaml(const AgentConfig& config) { return emit(config); }
 std::string to_yaml(const StationConfig& config) { return emit(config); }
 std::string to_yaml(const MissionConfig& config) { return emit(config); }
 std::string to_yaml(const ScenarioConfig& config) { return emit(config); }
+std::string to_yaml(const EvalConfig& config) { return emit(config); }
 
 }  // namespace keyfleet

@@ -2,13 +2,12 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include <algorithm>
 #include <filesystem>
 #include <set>
 
-#include "keyfleet/agent/keyframe_selector.hpp"
 #include "keyfleet/common/clock.hpp"
 #include "keyfleet/common/error.hpp"
-#include "keyfleet/common/scenario_truth.hpp"
 
 namespace keyfleet::agent {
 namespace {
@@ -25,12 +24,30 @@ class ReplayTrigger final : public KeyframeTrigger {
   std::set<std::uint64_t> keyframes_;
 };
 
+// Lends a segmenter to a selector that wants to own one.
+class BorrowedSegmenter final : public TextSegmenter {
+ public:
+  explicit BorrowedSegmenter(TextSegmenter& inner) : inner_(inner) {}
+  std::vector<cv::Mat> segment(const std::vector<cv::Mat>& bgr_frames) override {
+    return inner_.segment(bgr_frames);
+  }
+  const SegmenterInfo& info() const override { return inner_.info(); }
+
+ private:
+  TextSegmenter& inner_;
+};
+
 std::set<std::string> full_words(const scenario::FrameTruth& truth) {
   std::set<std::string> words;
   for (const auto& w : truth.words)
     if (w.legible && w.visibility == scenario::WordVisibility::kFull)
       words.insert(std::to_string(w.sign_id));
   return words;
+}
+
+bool is_semantic(SelectorConfig::Strategy strategy) {
+  return strategy == SelectorConfig::Strategy::kSemantic ||
+         strategy == SelectorConfig::Strategy::kFull;
 }
 
 }  // namespace
@@ -45,22 +62,102 @@ const char* to_string(SelectorConfig::Strategy strategy) {
   return "?";
 }
 
-SelectionEvaluation evaluate_selection(const std::string& scenario_dir, const std::string& drone,
-                                       const SelectorConfig& base,
-                                       const std::vector<SelectorConfig::Strategy>& strategies) {
+SelectorConfig::Strategy strategy_from_string(const std::string& name) {
+  for (auto s : {SelectorConfig::Strategy::kVslam, SelectorConfig::Strategy::kQuality,
+                 SelectorConfig::Strategy::kSemantic, SelectorConfig::Strategy::kFull})
+    if (name == to_string(s)) return s;
+  throw StartupError("unknown selection strategy '" + name +
+                     "' (vslam, quality, semantic or full)");
+}
+
+DroneFrames load_drone_frames(const std::string& scenario_dir, const std::string& drone) {
   const scenario::Scenario scenario = scenario::read_scenario(scenario_dir);
   const auto info = std::find_if(scenario.drones.begin(), scenario.drones.end(),
                                  [&](const auto& d) { return d.robot_id == drone; });
   if (info == scenario.drones.end())
     throw StartupError(scenario_dir + ": no drone '" + drone + "'");
+  DroneFrames out;
+  out.info = *info;
   const fs::path folder = fs::path(scenario_dir) / info->folder;
-  const auto truth = scenario::read_frame_truth(folder.string());
+  out.truth = scenario::read_frame_truth(folder.string());
+  for (const auto& t : out.truth) {
+    const std::string path = (folder / t.image).string();
+    cv::Mat image = cv::imread(path, cv::IMREAD_COLOR);
+    if (image.empty()) throw StartupError(path + ": cannot read the frame");
+    out.frames.push_back({t.index, t.timestamp_ns, std::move(image), t.camera_to_world});
+  }
+  return out;
+}
 
-  std::vector<Frame> frames;
-  for (const auto& t : truth)
-    frames.push_back({t.index, t.timestamp_ns,
-                      cv::imread((folder / t.image).string(), cv::IMREAD_COLOR),
-                      t.camera_to_world});
+std::vector<std::uint64_t> run_vslam_trigger(const std::vector<Frame>& frames,
+                                             const SelectorConfig& base, double fps,
+                                             double* ms_per_frame) {
+  SelectorConfig vslam = base;
+  vslam.strategy = SelectorConfig::Strategy::kVslam;
+  vslam.density = 1;
+  auto selector = make_selector(vslam, fps);
+  std::vector<std::uint64_t> keyframes;
+  const double start = thread_cpu_ms();
+  for (const auto& frame : frames)
+    if (selector->push(frame).vslam_keyframe) keyframes.push_back(frame.index);
+  if (ms_per_frame)
+    *ms_per_frame = frames.empty() ? 0 : (thread_cpu_ms() - start) / double(frames.size());
+  return keyframes;
+}
+
+std::vector<Selection> select_on_keyframes(const std::vector<Frame>& frames,
+                                           const std::vector<std::uint64_t>& keyframes,
+                                           const SelectorConfig& config, TextSegmenter* segmenter,
+                                           StageClock* clock) {
+  SelectorConfig c = config;
+  c.density = 1;
+  std::unique_ptr<TextSegmenter> lent;
+  if (is_semantic(c.strategy)) {
+    if (!segmenter)
+      throw StartupError(std::string("the ") + to_string(c.strategy) +
+                         " strategy needs a text segmenter");
+    lent = std::make_unique<BorrowedSegmenter>(*segmenter);
+  }
+  HierarchicalSelector selector(
+      c,
+      std::make_unique<ReplayTrigger>(std::set<std::uint64_t>(keyframes.begin(), keyframes.end())),
+      std::move(lent), clock);
+  std::vector<Selection> selected;
+  for (const auto& frame : frames)
+    for (auto& s : selector.push(frame).selected) selected.push_back(std::move(s));
+  for (auto& s : selector.finish()) selected.push_back(std::move(s));
+  return selected;
+}
+
+CachingSegmenter::CachingSegmenter(std::unique_ptr<TextSegmenter> inner)
+    : inner_(std::move(inner)) {}
+
+std::vector<cv::Mat> CachingSegmenter::segment(const std::vector<cv::Mat>& bgr_frames) {
+  requested_ += bgr_frames.size();
+  std::vector<cv::Mat> missing;
+  for (const auto& f : bgr_frames)
+    if (!masks_.count(f.data)) missing.push_back(f);
+  if (!missing.empty()) {
+    const double start = thread_cpu_ms();
+    const auto fresh = inner_->segment(missing);  // one batch, as the selector would run it
+    cpu_ms_ += thread_cpu_ms() - start;
+    for (std::size_t i = 0; i < missing.size() && i < fresh.size(); ++i)
+      masks_[missing[i].data] = fresh[i];
+  }
+  std::vector<cv::Mat> out;
+  for (const auto& f : bgr_frames) {
+    const auto it = masks_.find(f.data);
+    out.push_back(it != masks_.end() ? it->second : cv::Mat());
+  }
+  return out;
+}
+
+SelectionEvaluation evaluate_selection(const std::string& scenario_dir, const std::string& drone,
+                                       const SelectorConfig& base,
+                                       const std::vector<SelectorConfig::Strategy>& strategies) {
+  const DroneFrames drone_frames = load_drone_frames(scenario_dir, drone);
+  const auto& truth = drone_frames.truth;
+  const auto& frames = drone_frames.frames;
 
   SelectionEvaluation evaluation;
   evaluation.drone = drone;
@@ -70,37 +167,26 @@ SelectionEvaluation evaluate_selection(const std::string& scenario_dir, const st
     for (const auto& w : full_words(t)) in_sequence.insert(w);
   evaluation.words_in_sequence = in_sequence.size();
 
-  // The V-SLAM keyframes, once.
-  SelectorConfig vslam = base;
-  vslam.strategy = SelectorConfig::Strategy::kVslam;
-  std::set<std::uint64_t> keyframes;
-  {
-    auto selector = make_selector(vslam, info->fps);
-    const double start = thread_cpu_ms();
-    for (const auto& frame : frames)
-      if (selector->push(frame).vslam_keyframe) keyframes.insert(frame.index);
-    evaluation.trigger_ms_per_frame = (thread_cpu_ms() - start) / double(frames.size());
-  }
+  // The V-SLAM keyframes, once; `density` then keeps one of m, as the agent does.
+  const auto all_keyframes =
+      run_vslam_trigger(frames, base, drone_frames.info.fps, &evaluation.trigger_ms_per_frame);
+  std::vector<std::uint64_t> keyframes;
+  for (std::size_t i = 0; i < all_keyframes.size(); i += std::size_t(std::max(1, base.density)))
+    keyframes.push_back(all_keyframes[i]);
 
   for (const auto strategy : strategies) {
     SelectorConfig config = base;
     config.strategy = strategy;
     StageClock clock;
     std::unique_ptr<TextSegmenter> segmenter;
-    if (strategy == SelectorConfig::Strategy::kSemantic ||
-        strategy == SelectorConfig::Strategy::kFull)
+    if (is_semantic(strategy))
       segmenter = std::make_unique<DnnTextSegmenter>(locate_model(config.semantic.model),
                                                      config.semantic.threads);
-    HierarchicalSelector selector(config, std::make_unique<ReplayTrigger>(keyframes),
-                                  std::move(segmenter), &clock);
-    std::vector<Selection> selected;
-    for (const auto& frame : frames)
-      for (auto& s : selector.push(frame).selected) selected.push_back(std::move(s));
-    for (auto& s : selector.finish()) selected.push_back(std::move(s));
+    const auto selected = select_on_keyframes(frames, keyframes, config, segmenter.get(), &clock);
 
     StrategyResult result;
     result.strategy = to_string(strategy);
-    result.vslam_keyframes = keyframes.size();
+    result.vslam_keyframes = all_keyframes.size();
     result.keyframes = selected.size();
     std::set<std::string> seen;
     for (const auto& s : selected) {

@@ -274,22 +274,42 @@ struct MissionConfig {
   StationConfig station;
 };
 
+// `keyfleet eval` (configs/eval.yaml): the first seed's Fig. 6 on a generated scenario.
+struct EvalConfig {
+  ScenarioConfig scenario;   // generated into <out>/scenario unless scenario_dir is set
+  std::string scenario_dir;  // a scenario generated before (relative to the file)
+  std::vector<std::string> strategies = {"vslam", "quality", "semantic", "full"};
+  // Fractions of the V-SLAM keyframes kept, spread evenly (the same for every strategy).
+  std::vector<double> densities = {1.0, 0.75, 0.5, 0.35, 0.2, 0.1};
+  std::vector<std::string> drones;  // empty = every drone of the scenario
+  SelectorConfig selector;          // the agent's selection; strategy and density set per point
+  CodecConfig codec;                // the agent's JPEG quality (bytes sent)
+  std::string vocabulary = "orb_vocabulary.bin";  // place recognition (a bare name: shipped)
+  int orb_features = 1000;
+  int query_every = 10;            // place queries: every n-th frame of the query drone
+  double place_tolerance_m = 5.0;  // a retrieved keyframe is right within this street distance
+  int ocr_threads = 2;             // text readers at once (one Tesseract each)
+};
+
 // Loaders throw ConfigError naming the file, the key and what is allowed.
 AgentConfig load_agent_config(const std::string& path);
 StationConfig load_station_config(const std::string& path);
 MissionConfig load_mission_config(const std::string& path);
 ScenarioConfig load_scenario_config(const std::string& path);
+EvalConfig load_eval_config(const std::string& path);
 
 std::string to_yaml(const AgentConfig& config);
 std::string to_yaml(const StationConfig& config);
 std::string to_yaml(const MissionConfig& config);
 std::string to_yaml(const ScenarioConfig& config);
+std::string to_yaml(const EvalConfig& config);
 
 // Parses YAML text (for tests and generated configs); `origin` names it in errors.
 AgentConfig parse_agent_config(const std::string& text, const std::string& origin);
 StationConfig parse_station_config(const std::string& text, const std::string& origin);
 MissionConfig parse_mission_config(const std::string& text, const std::string& origin);
 ScenarioConfig parse_scenario_config(const std::string& text, const std::string& origin);
+EvalConfig parse_eval_config(const std::string& text, const std::string& origin);
 
 bool is_valid_robot_id(const std::string& robot_id);
 

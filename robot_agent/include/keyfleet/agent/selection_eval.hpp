@@ -1,10 +1,16 @@
 #pragma once
 // Offline evaluation of the selection strategies on a generated scenario's ground truth.
+#include <cstdint>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "keyfleet/agent/frame_source.hpp"
+#include "keyfleet/agent/keyframe_selector.hpp"
+#include "keyfleet/agent/text_segmenter.hpp"
 #include "keyfleet/common/config.hpp"
+#include "keyfleet/common/scenario_truth.hpp"
 #include "keyfleet/common/stage_clock.hpp"
 
 namespace keyfleet::agent {
@@ -37,5 +43,49 @@ SelectionEvaluation evaluate_selection(const std::string& scenario_dir, const st
                                        const std::vector<SelectorConfig::Strategy>& strategies);
 
 const char* to_string(SelectorConfig::Strategy strategy);
+// Throws StartupError for a name that is not vslam, quality, semantic or full.
+SelectorConfig::Strategy strategy_from_string(const std::string& name);
+
+// One drone of a scenario, decoded into memory (640x480: about 0.9 MB a frame).
+struct DroneFrames {
+  scenario::DroneInfo info;
+  std::vector<scenario::FrameTruth> truth;  // truth[i] belongs to frames[i]
+  std::vector<Frame> frames;
+};
+// Throws StartupError for an unknown drone or an unreadable frame.
+DroneFrames load_drone_frames(const std::string& scenario_dir, const std::string& drone);
+
+// The V-SLAM keyframes (frame indices, ascending) the trigger of `base` takes on the frames.
+std::vector<std::uint64_t> run_vslam_trigger(const std::vector<Frame>& frames,
+                                             const SelectorConfig& base, double fps,
+                                             double* ms_per_frame = nullptr);
+
+// One strategy of `config` anchored on exactly these V-SLAM keyframes (thin them first for a
+// lower density: `config.density` is ignored). `segmenter` is borrowed, and needed by the
+// semantic strategies; `clock` (optional) receives the stages' CPU time.
+std::vector<Selection> select_on_keyframes(const std::vector<Frame>& frames,
+                                           const std::vector<std::uint64_t>& keyframes,
+                                           const SelectorConfig& config, TextSegmenter* segmenter,
+                                           StageClock* clock = nullptr);
+
+// Remembers each frame's mask, keyed by the frame's pixel buffer, so that strategies and
+// densities evaluated on the same decoded frames run the network once per frame. Only valid
+// while those frames live: make one per set of frames.
+class CachingSegmenter final : public TextSegmenter {
+ public:
+  explicit CachingSegmenter(std::unique_ptr<TextSegmenter> inner);
+  std::vector<cv::Mat> segment(const std::vector<cv::Mat>& bgr_frames) override;
+  const SegmenterInfo& info() const override { return inner_->info(); }
+
+  std::size_t frames_requested() const { return requested_; }
+  std::size_t frames_segmented() const { return masks_.size(); }
+  double cpu_ms() const { return cpu_ms_; }  // in the network, calling thread
+
+ private:
+  std::unique_ptr<TextSegmenter> inner_;
+  std::map<const std::uint8_t*, cv::Mat> masks_;
+  std::size_t requested_ = 0;
+  double cpu_ms_ = 0;
+};
 
 }  // namespace keyfleet::agent

@@ -1,0 +1,263 @@
+// The evaluation's files: results.json (everything), results.csv (one row per drone and
+// point, plus the summed rows) and report.md (tables, plots, the paper's claims checked).
+#include <nlohmann/json.hpp>
+
+#include <cstdarg>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "keyfleet/common/error.hpp"
+#include "keyfleet/eval/eval_runner.hpp"
+
+namespace keyfleet::eval {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string format(const char* fmt, ...) {
+  char buffer[512];
+  va_list args;
+  va_start(args, fmt);
+  std::vsnprintf(buffer, sizeof buffer, fmt, args);
+  va_end(args);
+  return buffer;
+}
+
+void write_file(const fs::path& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+  if (!out) throw StartupError("eval: cannot write " + path.string());
+}
+
+const PointSummary* find(const std::vector<PointSummary>& summary, const std::string& strategy,
+                         double density) {
+  for (const auto& p : summary)
+    if (p.strategy == strategy && p.density == density) return &p;
+  return nullptr;
+}
+
+nlohmann::json to_json(const PointSummary& p) {
+  return {{"strategy", p.strategy},
+          {"density", p.density},
+          {"keyframes", p.keyframes},
+          {"vslam_keyframes", p.vslam_keyframes},
+          {"words_in_sequence", p.words_in_sequence},
+          {"full_words", p.full_words},
+          {"words_read", p.words_read},
+          {"word_recall", p.word_recall},
+          {"full_word_recall", p.full_word_recall},
+          {"bytes", p.bytes},
+          {"place_queries", p.topk.queries},
+          {"top1", p.topk.top1_rate()},
+          {"top5", p.topk.top5_rate()}};
+}
+
+std::string csv(const EvalResults& r) {
+  std::ostringstream out;
+  out << "scope,strategy,density,keyframes,vslam_keyframes,words_in_sequence,full_words,"
+         "words_read,word_recall,bytes,place_queries,top1,top5\n";
+  for (const auto& w : r.words)
+    out << w.drone << "," << w.strategy << "," << w.density << "," << w.keyframes << ","
+        << w.vslam_keyframes << "," << w.words_in_sequence << "," << w.full_words << ","
+        << w.words_read << ","
+        << (w.words_in_sequence ? double(w.words_read) / double(w.words_in_sequence) : 0.0) << ","
+        << w.bytes << ",,,\n";
+  for (const auto& p : r.summary)
+    out << "all," << p.strategy << "," << p.density << "," << p.keyframes << ","
+        << p.vslam_keyframes << "," << p.words_in_sequence << "," << p.full_words << ","
+        << p.words_read << "," << p.word_recall << "," << p.bytes << "," << p.topk.queries << ","
+        << p.topk.top1_rate() << "," << p.topk.top5_rate() << "\n";
+  return out.str();
+}
+
+// One table: a row per density, a column per strategy, `cell` formats a point.
+template <typename Cell>
+std::string table(const EvalResults& r, const std::string& first, Cell cell) {
+  std::string out = "| " + first + " | keyframes |";
+  std::string rule = "|---|---|";
+  for (const auto& s : r.strategies) out += " " + s + " |", rule += "---|";
+  out += "\n" + rule + "\n";
+  for (double d : r.densities) {
+    const auto* any = find(r.summary, r.strategies.front(), d);
+    out += format("| %.0f %% | %zu |", 100 * d, any ? any->keyframes : 0);
+    for (const auto& s : r.strategies) {
+      const auto* p = find(r.summary, s, d);
+      out += " " + (p ? cell(*p) : std::string("-")) + " |";
+    }
+    out += "\n";
+  }
+  return out;
+}
+
+// Where one strategy has more (or at least as much) than another, density by density.
+template <typename Value>
+std::string compare(const EvalResults& r, const std::string& a, const std::string& b, Value value,
+                    const char* unit, bool at_least) {
+  std::string out;
+  int holds = 0, points = 0;
+  for (double d : r.densities) {
+    const auto* pa = find(r.summary, a, d);
+    const auto* pb = find(r.summary, b, d);
+    if (!pa || !pb) continue;
+    ++points;
+    const double va = value(*pa), vb = value(*pb);
+    const bool ok = at_least ? va >= vb : va > vb;
+    holds += ok;
+    out += format("%s%.0f %%: %.3g vs %.3g%s", out.empty() ? "" : "; ", 100 * d, va, vb, unit);
+  }
+  if (!points) return "(" + a + " or " + b + " not evaluated)";
+  return format("holds at %d of %d densities (%s vs %s: ", holds, points, a.c_str(), b.c_str()) +
+         out + ")";
+}
+
+std::string report(const EvalResults& r) {
+  std::ostringstream md;
+  md << "# keyfleet eval: the first seed's Fig. 6 on a generated scenario\n\n";
+  md << "Scenario `" << r.scenario_name << "` (seed " << r.scenario_seed << ", " << r.scenario_dir
+     << "): ";
+  for (std::size_t i = 0; i < r.drones.size(); ++i) md << (i ? ", " : "") << r.drones[i];
+  md << ". Text reader: `" << r.text_reader << "`. Place recognition: ORB bag of words with `"
+     << fs::path(r.vocabulary).filename().string() << "`, queries every " << r.query_every
+     << "th frame of one drone against the selected keyframes of each drone of the other day, "
+     << "right when the retrieved keyframe looks at a street point within " << r.place_tolerance_m
+     << " m of the query's. JPEG quality " << r.jpeg_quality
+     << ". Densities are fractions of each drone's V-SLAM keyframes, kept evenly spread and "
+        "the same for every strategy, so every strategy sends the same number of keyframes.\n\n";
+
+  md << "## (a) Words read (Fig. 6a)\n\nDistinct ground-truth words read by the text reader in "
+        "the selected keyframes, summed over drones (recall = mean over drones of words read / "
+        "legible words fully visible somewhere in the drone's sequence):\n\n";
+  md << table(r, "kept", [](const PointSummary& p) {
+    return format("%zu (%.2f)", p.words_read, p.word_recall);
+  });
+  md << "\nOf the same words, those fully visible in a selected keyframe (ground truth, no "
+        "reading):\n\n";
+  md << table(r, "kept", [](const PointSummary& p) {
+    return format("%zu / %zu", p.full_words, p.words_in_sequence);
+  });
+  md << "\n![Fig. 6a](fig6a_words.png)\n\n";
+
+  md << "## (b) Place recognition (Fig. 6b)\n\nTop-1 / top-5 accuracy over the answerable "
+        "queries (some frame of the database drone looks within the tolerance):\n\n";
+  md << table(r, "kept", [](const PointSummary& p) {
+    return format("%.3f / %.3f (%zu q)", p.topk.top1_rate(), p.topk.top5_rate(), p.topk.queries);
+  });
+  md << "\n![Fig. 6b](fig6b_places.png)\n\n";
+
+  md << "## (c) Bytes sent\n\n";
+  md << table(r, "kept", [](const PointSummary& p) { return format("%.2f MB", p.bytes / 1e6); });
+
+  md << "\n## The paper's claims, here\n\n";
+  auto read = [](const PointSummary& p) { return double(p.words_read); };
+  auto full = [](const PointSummary& p) { return double(p.full_words); };
+  auto top1 = [](const PointSummary& p) { return p.topk.top1_rate(); };
+  auto top5 = [](const PointSummary& p) { return p.topk.top5_rate(); };
+  md << "- More words at every density (words read): "
+     << compare(r, "full", "vslam", read, "", false) << ".\n";
+  md << "- The same on ground truth (words fully visible in the keyframes): "
+     << compare(r, "full", "vslam", full, "", false) << ".\n";
+  md << "- No loss in place recognition (top-1): " << compare(r, "full", "vslam", top1, "", true)
+     << ".\n";
+  md << "- No loss in place recognition (top-5): " << compare(r, "full", "vslam", top5, "", true)
+     << ".\n";
+  const auto* one = find(r.summary, r.strategies.front(), r.densities.front());
+  if (one && one->topk.queries)
+    md << format("\nOne query is %.1f points of accuracy at a density; one word is one count.\n",
+                 100.0 / double(one->topk.queries));
+
+  const auto& c = r.cost;
+  md << "\n## Cost\n\n";
+  md << format(
+      "%zu frames decoded; V-SLAM trigger %.1f ms/frame CPU, run once per drone; %zu "
+      "selection runs (strategy x density x drone) recomputing quality and sharpness, %.1f s "
+      "CPU; MiniNet asked about %zu frames, ran on %zu (cached per frame), %.1f s CPU; text "
+      "reader on %zu distinct selected frames, %.1f s wall (median %.0f ms a frame, one "
+      "reader); ORB + bag of words on %zu frames, %.1f s; whole evaluation %.1f s wall.\n",
+      c.frames, c.trigger_ms_per_frame, c.selection_runs, c.selection_cpu_ms / 1e3,
+      c.segmenter_requests, c.segmenter_frames, c.segmenter_cpu_ms / 1e3, c.ocr_frames,
+      c.ocr_wall_s, c.ocr_median_ms, c.orb_frames, c.orb_ms / 1e3, c.wall_s);
+  return md.str();
+}
+
+}  // namespace
+
+void write_results(const EvalResults& r, const std::string& out_dir) {
+  fs::create_directories(out_dir);
+  nlohmann::json j;
+  j["scenario"] = {{"dir", r.scenario_dir}, {"name", r.scenario_name}, {"seed", r.scenario_seed}};
+  j["drones"] = r.drones;
+  j["strategies"] = r.strategies;
+  j["densities"] = r.densities;
+  j["text_reader"] = r.text_reader;
+  j["vocabulary"] = r.vocabulary;
+  j["place_tolerance_m"] = r.place_tolerance_m;
+  j["query_every"] = r.query_every;
+  j["jpeg_quality"] = r.jpeg_quality;
+  j["summary"] = nlohmann::json::array();
+  for (const auto& p : r.summary) j["summary"].push_back(to_json(p));
+  j["words"] = nlohmann::json::array();
+  for (const auto& w : r.words)
+    j["words"].push_back({{"drone", w.drone},
+                          {"strategy", w.strategy},
+                          {"density", w.density},
+                          {"vslam_keyframes", w.vslam_keyframes},
+                          {"keyframes", w.keyframes},
+                          {"words_in_sequence", w.words_in_sequence},
+                          {"full_words", w.full_words},
+                          {"words_read", w.words_read},
+                          {"bytes", w.bytes}});
+  j["places"] = nlohmann::json::array();
+  for (const auto& p : r.places)
+    j["places"].push_back({{"query_drone", p.query_drone},
+                           {"database_drone", p.database_drone},
+                           {"strategy", p.strategy},
+                           {"density", p.density},
+                           {"database_keyframes", p.database_keyframes},
+                           {"queries", p.topk.queries},
+                           {"unanswerable", p.unanswerable},
+                           {"top1", p.topk.top1},
+                           {"top5", p.topk.top5}});
+  const auto& c = r.cost;
+  j["cost"] = {{"frames", c.frames},
+               {"trigger_ms_per_frame", c.trigger_ms_per_frame},
+               {"selection_runs", c.selection_runs},
+               {"selection_cpu_ms", c.selection_cpu_ms},
+               {"segmenter_requests", c.segmenter_requests},
+               {"segmenter_frames", c.segmenter_frames},
+               {"segmenter_cpu_ms", c.segmenter_cpu_ms},
+               {"ocr_frames", c.ocr_frames},
+               {"ocr_wall_s", c.ocr_wall_s},
+               {"ocr_median_ms", c.ocr_median_ms},
+               {"orb_frames", c.orb_frames},
+               {"orb_ms", c.orb_ms},
+               {"wall_s", c.wall_s}};
+  const fs::path dir(out_dir);
+  write_file(dir / "results.json", j.dump(2) + "\n");
+  write_file(dir / "results.csv", csv(r));
+  write_file(dir / "report.md", report(r));
+}
+
+bool plot_results(const std::string& out_dir, const std::string& python, std::string& problem) {
+  std::vector<fs::path> candidates;
+  std::error_code error;
+  const fs::path self = fs::read_symlink("/proc/self/exe", error);
+  if (!error) candidates.push_back(self.parent_path() / "../share/keyfleet/report/plot_eval.py");
+#ifdef KEYFLEET_EVAL_REPORT_SOURCE_DIR
+  candidates.push_back(fs::path(KEYFLEET_EVAL_REPORT_SOURCE_DIR) / "plot_eval.py");
+#endif
+  for (const auto& script : candidates) {
+    if (!fs::is_regular_file(script)) continue;
+    const std::string command =
+        "'" + python + "' '" + script.lexically_normal().string() + "' '" + out_dir + "'";
+    if (std::system(command.c_str()) == 0) return true;
+    problem = command + " failed (is python3-matplotlib installed?)";
+    return false;
+  }
+  problem = "plot_eval.py not found beside the binaries nor in the source tree";
+  return false;
+}
+
+}  // namespace keyfleet::eval

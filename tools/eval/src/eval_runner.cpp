@@ -1,0 +1,341 @@
+#include "keyfleet/eval/eval_runner.hpp"
+
+#include <opencv2/core/utility.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <set>
+#include <thread>
+
+#include "keyfleet/agent/selection_eval.hpp"
+#include "keyfleet/common/error.hpp"
+#include "keyfleet/common/image_codec.hpp"
+#include "keyfleet/common/model_files.hpp"
+#include "keyfleet/scenario/scenario_generator.hpp"
+#include "keyfleet/station/bow_database.hpp"
+#include "keyfleet/station/orb_extractor.hpp"
+#include "keyfleet/station/orb_vocabulary.hpp"
+#include "keyfleet/station/text_reader.hpp"
+
+namespace keyfleet::eval {
+namespace {
+
+namespace fs = std::filesystem;
+using SteadyClock = std::chrono::steady_clock;
+
+double seconds_since(SteadyClock::time_point start) {
+  return std::chrono::duration<double>(SteadyClock::now() - start).count();
+}
+
+// What one drone leaves behind once its decoded frames are released.
+struct DroneRun {
+  scenario::DroneInfo info;
+  std::vector<double> positions;  // street position of every frame
+  // [strategy][density] -> the selected frames
+  std::vector<std::vector<std::vector<std::uint64_t>>> selected;
+  std::map<std::uint64_t, station::BowVector> bows;  // queries and selected frames
+  std::vector<std::uint64_t> queries;
+};
+
+// Signs read in each frame, with `threads` readers (one Tesseract each) working at once.
+std::map<std::uint64_t, std::set<int>> read_frames(const std::vector<std::uint64_t>& frames,
+                                                   const agent::DroneFrames& drone, int threads,
+                                                   EvalCost& cost, std::string& reader_name) {
+  const std::size_t workers =
+      std::max<std::size_t>(1, std::min<std::size_t>(std::size_t(threads), frames.size()));
+  std::vector<std::unique_ptr<station::TextReader>> readers;
+  for (std::size_t i = 0; i < workers; ++i)
+    readers.push_back(station::make_text_reader(station::TextReaderParams{}));
+  reader_name = readers.front()->name();
+
+  std::vector<std::set<int>> found(frames.size());
+  std::vector<std::vector<double>> ms(workers);
+  std::atomic<std::size_t> next{0};
+  const auto start = SteadyClock::now();
+  auto work = [&](std::size_t w) {
+    for (std::size_t i = next++; i < frames.size(); i = next++) {
+      const auto t0 = SteadyClock::now();
+      std::vector<WordRead> read;
+      for (const auto& word : readers[w]->read(drone.frames[frames[i]].image))
+        read.push_back({word.text, double(word.box.x), double(word.box.y),
+                        double(word.box.x + word.box.width), double(word.box.y + word.box.height)});
+      found[i] = signs_read(read, drone.truth[frames[i]]);
+      ms[w].push_back(seconds_since(t0) * 1e3);
+    }
+  };
+  std::vector<std::thread> pool;
+  for (std::size_t w = 1; w < workers; ++w) pool.emplace_back(work, w);
+  work(0);
+  for (auto& t : pool) t.join();
+  cost.ocr_wall_s += seconds_since(start);
+  cost.ocr_frames += frames.size();
+  std::vector<double> all;
+  for (const auto& m : ms) all.insert(all.end(), m.begin(), m.end());
+  if (!all.empty()) {
+    std::nth_element(all.begin(), all.begin() + long(all.size() / 2), all.end());
+    cost.ocr_median_ms = all[all.size() / 2];  // the last drone's; all drones alike
+  }
+  std::map<std::uint64_t, std::set<int>> out;
+  for (std::size_t i = 0; i < frames.size(); ++i) out[frames[i]] = std::move(found[i]);
+  return out;
+}
+
+std::set<int> words_in_sequence(const std::vector<scenario::FrameTruth>& truth) {
+  std::set<int> signs;
+  for (const auto& t : truth) {
+    const auto full = fully_visible_signs(t);
+    signs.insert(full.begin(), full.end());
+  }
+  return signs;
+}
+
+std::size_t count_in(const std::set<int>& found, const std::set<int>& relevant) {
+  std::size_t n = 0;
+  for (int f : found) n += relevant.count(f);
+  return n;
+}
+
+}  // namespace
+
+std::string prepare_scenario(const EvalConfig& config, const std::string& out_dir, Logger logger) {
+  if (!config.scenario_dir.empty()) {
+    if (!fs::is_regular_file(fs::path(config.scenario_dir) / "scenario.json"))
+      throw StartupError("eval: scenario_dir " + config.scenario_dir +
+                         " holds no scenario.json (generate one with keyfleet scenario generate)");
+    return config.scenario_dir;
+  }
+  const fs::path dir = fs::path(out_dir) / "scenario";
+  if (fs::is_regular_file(dir / "scenario.json")) {
+    logger->info("reusing the scenario already in {}", dir.string());
+    return dir.string();
+  }
+  logger->info("generating the scenario into {}", dir.string());
+  scenario::generate_scenario(config.scenario, dir.string(), logger);
+  return dir.string();
+}
+
+namespace {
+
+// What every drone's evaluation shares.
+struct Context {
+  const EvalConfig& config;
+  const std::string& scenario_dir;
+  Logger logger;
+  std::vector<SelectorConfig::Strategy> strategies;
+  std::string model;  // empty when no strategy needs MiniNet
+  station::OrbVocabulary vocabulary;
+  station::OrbParams orb;
+  JpegCodec codec;
+  std::size_t drones = 0;
+};
+
+// Every strategy at every density over one drone's frames: the selections, the bytes, the
+// words read and the bag-of-words vectors the place pairs need afterwards.
+DroneRun evaluate_drone(const Context& ctx, const std::string& drone, EvalResults& results) {
+  const EvalConfig& config = ctx.config;
+  ctx.logger->info("{}: decoding frames", drone);
+  const agent::DroneFrames d = agent::load_drone_frames(ctx.scenario_dir, drone);
+  DroneRun run;
+  run.info = d.info;
+  for (const auto& t : d.truth) run.positions.push_back(t.street_position_m);
+  results.drones.push_back(drone + " (day " + std::to_string(d.info.day) + ", " +
+                           std::to_string(d.frames.size()) + " frames)");
+  EvalCost& cost = results.cost;
+  cost.frames += d.frames.size();
+
+  double trigger_ms = 0;
+  const auto vslam = agent::run_vslam_trigger(d.frames, config.selector, d.info.fps, &trigger_ms);
+  cost.trigger_ms_per_frame += trigger_ms / double(ctx.drones);
+  ctx.logger->info("{}: {} V-SLAM keyframes ({:.1f} ms/frame)", drone, vslam.size(), trigger_ms);
+
+  std::unique_ptr<agent::CachingSegmenter> segmenter;
+  if (!ctx.model.empty())
+    segmenter = std::make_unique<agent::CachingSegmenter>(
+        std::make_unique<agent::DnnTextSegmenter>(ctx.model, config.selector.semantic.threads));
+  std::set<std::uint64_t> distinct;
+  run.selected.assign(ctx.strategies.size(), {});
+  for (std::size_t s = 0; s < ctx.strategies.size(); ++s)
+    for (double density : config.densities) {
+      std::vector<std::uint64_t> kept;
+      for (auto i : spread_evenly(vslam.size(), density)) kept.push_back(vslam[i]);
+      SelectorConfig selector = config.selector;
+      selector.strategy = ctx.strategies[s];
+      StageClock clock;
+      std::vector<std::uint64_t> frames;
+      for (const auto& sel :
+           agent::select_on_keyframes(d.frames, kept, selector, segmenter.get(), &clock))
+        frames.push_back(sel.frame.index);
+      for (const auto& stage : clock.snapshot())
+        if (stage.stage != "trigger" && stage.stage != "semantic")
+          cost.selection_cpu_ms += stage.cpu_ms_total;
+      ++cost.selection_runs;
+      distinct.insert(frames.begin(), frames.end());
+      run.selected[s].push_back(std::move(frames));
+    }
+  if (segmenter) {
+    cost.segmenter_requests += segmenter->frames_requested();
+    cost.segmenter_frames += segmenter->frames_segmented();
+    cost.segmenter_cpu_ms += segmenter->cpu_ms();
+  }
+
+  std::vector<std::uint64_t> bytes_by_frame(d.frames.size(), 0);
+  for (auto f : distinct) bytes_by_frame[f] = ctx.codec.encode(d.frames[f].image).size();
+
+  const std::vector<std::uint64_t> to_read(distinct.begin(), distinct.end());
+  ctx.logger->info("{}: reading the words in {} distinct selected frames", drone, to_read.size());
+  const auto read = read_frames(to_read, d, config.ocr_threads, cost, results.text_reader);
+
+  for (std::uint64_t f = 0; f < d.frames.size(); f += std::uint64_t(config.query_every))
+    run.queries.push_back(f);
+  std::set<std::uint64_t> to_describe(distinct);
+  to_describe.insert(run.queries.begin(), run.queries.end());
+  const auto orb_start = SteadyClock::now();
+  for (auto f : to_describe)
+    run.bows[f] =
+        ctx.vocabulary.transform(station::extract_orb(d.frames[f].image, ctx.orb).descriptors);
+  cost.orb_ms += seconds_since(orb_start) * 1e3;
+  cost.orb_frames += to_describe.size();
+
+  const std::set<int> sequence = words_in_sequence(d.truth);
+  for (std::size_t s = 0; s < ctx.strategies.size(); ++s)
+    for (std::size_t k = 0; k < config.densities.size(); ++k) {
+      const auto& frames = run.selected[s][k];
+      std::set<int> full, words_read;
+      for (auto f : frames) {
+        const auto visible = fully_visible_signs(d.truth[f]);
+        full.insert(visible.begin(), visible.end());
+        const auto& r = read.at(f);
+        words_read.insert(r.begin(), r.end());
+      }
+      WordScore w;
+      w.drone = drone;
+      w.strategy = config.strategies[s];
+      w.density = config.densities[k];
+      w.vslam_keyframes = vslam.size();
+      w.keyframes = frames.size();
+      w.words_in_sequence = sequence.size();
+      w.full_words = count_in(full, sequence);
+      w.words_read = count_in(words_read, sequence);
+      w.bytes = bytes_sent(frames, bytes_by_frame);
+      results.words.push_back(w);
+    }
+  return run;
+}
+
+// Queries from `q` against the keyframes `db` selected at each strategy and density.
+void score_places(const EvalConfig& config, const DroneRun& q, const DroneRun& db,
+                  std::vector<PlaceScore>& out) {
+  for (std::size_t s = 0; s < db.selected.size(); ++s)
+    for (std::size_t k = 0; k < config.densities.size(); ++k) {
+      const auto& keyframes = db.selected[s][k];
+      station::BowDatabase database;
+      for (auto f : keyframes) database.add(db.bows.at(f), {});
+      PlaceScore p;
+      p.query_drone = q.info.robot_id;
+      p.database_drone = db.info.robot_id;
+      p.strategy = config.strategies[s];
+      p.density = config.densities[k];
+      p.database_keyframes = keyframes.size();
+      for (auto f : q.queries) {
+        const double at = q.positions[f];
+        if (!answerable(at, db.positions, config.place_tolerance_m)) {
+          ++p.unanswerable;
+          continue;
+        }
+        std::vector<double> retrieved;
+        for (const auto& m : database.query(q.bows.at(f), 5))
+          retrieved.push_back(db.positions[keyframes[m.entry]]);
+        add_query(p.topk, at, retrieved, config.place_tolerance_m);
+      }
+      out.push_back(p);
+    }
+}
+
+}  // namespace
+
+EvalResults run_eval(const EvalConfig& config, const std::string& scenario_dir, Logger logger) {
+  const auto start = SteadyClock::now();
+  const scenario::Scenario scenario = scenario::read_scenario(scenario_dir);
+  EvalResults results;
+  results.scenario_dir = scenario_dir;
+  results.scenario_name = scenario.name;
+  results.scenario_seed = scenario.seed;
+  results.strategies = config.strategies;
+  results.densities = config.densities;
+  results.place_tolerance_m = config.place_tolerance_m;
+  results.query_every = config.query_every;
+  results.jpeg_quality = config.codec.jpeg_quality;
+  results.vocabulary = locate_model_file(config.vocabulary, "place vocabulary");
+
+  Context ctx{config, scenario_dir,
+              logger, {},
+              {},     station::OrbVocabulary::load(results.vocabulary),
+              {},     JpegCodec(config.codec.jpeg_quality)};
+  bool semantic = false;
+  for (const auto& name : config.strategies) {
+    ctx.strategies.push_back(agent::strategy_from_string(name));
+    semantic = semantic || name == "semantic" || name == "full";
+  }
+  if (semantic) ctx.model = agent::locate_model(config.selector.semantic.model);
+  ctx.orb.features = config.orb_features;
+  std::vector<std::string> drones = config.drones;
+  if (drones.empty())
+    for (const auto& d : scenario.drones) drones.push_back(d.robot_id);
+  ctx.drones = drones.size();
+
+  std::vector<DroneRun> runs;
+  for (const auto& drone : drones) runs.push_back(evaluate_drone(ctx, drone, results));
+  // Place recognition: every ordered pair of drones that flew on different days.
+  for (const auto& q : runs)
+    for (const auto& db : runs)
+      if (q.info.day != db.info.day) score_places(config, q, db, results.places);
+  results.summary = summarise(results.words, results.places, config.strategies, config.densities);
+  results.cost.wall_s = seconds_since(start);
+  return results;
+}
+
+std::vector<PointSummary> summarise(const std::vector<WordScore>& words,
+                                    const std::vector<PlaceScore>& places,
+                                    const std::vector<std::string>& strategies,
+                                    const std::vector<double>& densities) {
+  std::vector<PointSummary> out;
+  for (const auto& strategy : strategies)
+    for (double density : densities) {
+      PointSummary p;
+      p.strategy = strategy;
+      p.density = density;
+      std::size_t drones = 0;
+      for (const auto& w : words) {
+        if (w.strategy != strategy || w.density != density) continue;
+        ++drones;
+        p.keyframes += w.keyframes;
+        p.vslam_keyframes += w.vslam_keyframes;
+        p.words_in_sequence += w.words_in_sequence;
+        p.full_words += w.full_words;
+        p.words_read += w.words_read;
+        p.bytes += w.bytes;
+        if (w.words_in_sequence) {
+          p.word_recall += double(w.words_read) / double(w.words_in_sequence);
+          p.full_word_recall += double(w.full_words) / double(w.words_in_sequence);
+        }
+      }
+      if (drones) {
+        p.word_recall /= double(drones);
+        p.full_word_recall /= double(drones);
+      }
+      for (const auto& pl : places) {
+        if (pl.strategy != strategy || pl.density != density) continue;
+        p.topk.queries += pl.topk.queries;
+        p.topk.top1 += pl.topk.top1;
+        p.topk.top5 += pl.topk.top5;
+      }
+      out.push_back(p);
+    }
+  return out;
+}
+
+}  // namespace keyfleet::eval
