@@ -57,16 +57,19 @@ const Keyframes& keyframes() {
   return k;
 }
 
-AnalysisConfig config_with(bool text, bool places) {
+AnalysisConfig config_with(bool text, bool places, int text_long_side = 1280) {
   AnalysisConfig config;
   config.text.enabled = text;
+  config.text.min_long_side = text_long_side;
   config.places.enabled = places;
   return config;
 }
 
-// Per keyframe, one thread: arg 0 = places, 1 = text, 2 = both.
+// Per keyframe, one thread: arg 0 = places, 1 = text, 2 = both; text read at 1280 px or
+// at the keyframe's own size (0).
 void BM_AnalyseKeyframe(benchmark::State& state) {
-  const AnalysisConfig config = config_with(state.range(0) >= 1, state.range(0) != 1);
+  const AnalysisConfig config =
+      config_with(state.range(0) >= 1, state.range(0) != 1, static_cast<int>(state.range(1)));
   auto places = make_configured_place_recognizer(config.places);
   KeyframeAnalyzer analyzer(make_configured_text_reader(config.text), places.get(), config,
                             null_logger());
@@ -80,16 +83,17 @@ void BM_AnalyseKeyframe(benchmark::State& state) {
       benchmark::Counter(double(words) / double(state.iterations()));
 }
 BENCHMARK(BM_AnalyseKeyframe)
-    ->ArgName("places0_text1_both2")
-    ->Arg(0)
-    ->Arg(1)
-    ->Arg(2)
+    ->ArgNames({"places0_text1_both2", "text_long_side"})
+    ->Args({0, 0})
+    ->Args({1, 1280})
+    ->Args({1, 0})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(40);
 
-// The whole flight through the pool with everything on: keyframes per second sustained.
+// The whole flight through the pool with everything on: keyframes per second sustained,
+// with keyframes read at 1280 px (the default) or at their own 640 px.
 void BM_StationThroughput(benchmark::State& state) {
-  const AnalysisConfig config = config_with(true, true);
+  const AnalysisConfig config = config_with(true, true, static_cast<int>(state.range(1)));
   const auto& jobs = keyframes().jobs;
   for (auto _ : state) {
     auto places = make_configured_place_recognizer(config.places);
@@ -106,9 +110,11 @@ void BM_StationThroughput(benchmark::State& state) {
   state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * jobs.size()));
 }
 BENCHMARK(BM_StationThroughput)
-    ->ArgName("workers")
-    ->Arg(1)
-    ->Arg(2)
+    ->ArgNames({"workers", "text_long_side"})
+    ->Args({1, 1280})
+    ->Args({2, 1280})
+    ->Args({1, 0})
+    ->Args({2, 0})
     ->Unit(benchmark::kSecond)
     ->UseRealTime()
     ->Iterations(1);
@@ -116,6 +122,7 @@ BENCHMARK(BM_StationThroughput)
 }  // namespace
 
 int main(int argc, char** argv) {
+  keyfleet::limit_openmp_to_one_thread(argv);
   keep_image_buffers_in_heap();
   benchmark::Initialize(&argc, argv);
   keyframes();  // generate before timing

@@ -388,6 +388,8 @@ void visit(V& v, TextReadingConfig& c) {
   v.field("tessdata_dir", c.tessdata_dir);
   v.field("language", c.language);
   v.field("min_confidence", c.min_confidence, between(0.0, 1.0));
+  v.field("min_long_side", c.min_long_side, between(0, 8192));
+  v.field("min_word_length", c.min_word_length, between(1, 64));
 }
 
 template <class V>

@@ -1,12 +1,21 @@
 #include "keyfleet/common/process_tuning.hpp"
 
 #include <malloc.h>
+#include <unistd.h>
+
+#include <cstdlib>
 
 namespace keyfleet {
 
 void keep_image_buffers_in_heap() {
   mallopt(M_MMAP_THRESHOLD, 64 << 20);
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
+}
+
+void limit_openmp_to_one_thread(char** argv) {
+  if (std::getenv("OMP_THREAD_LIMIT") != nullptr) return;
+  setenv("OMP_THREAD_LIMIT", "1", 1);
+  execv("/proc/self/exe", argv);  // returns only on failure
 }
 
 }  // namespace keyfleet

@@ -8,6 +8,7 @@
 #include "keyfleet/common/clock.hpp"
 #include "keyfleet/common/dds_transport.hpp"
 #include "keyfleet/common/process_options.hpp"
+#include "keyfleet/common/process_tuning.hpp"
 #include "keyfleet/common/shutdown_signal.hpp"
 #include "keyfleet/station/analysis_exports.hpp"
 #include "keyfleet/station/analysis_setup.hpp"
@@ -97,6 +98,7 @@ int run(const ProcessOptions& options) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  keyfleet::limit_openmp_to_one_thread(argv);
   keyfleet::block_termination_signals();
   keyfleet::ProcessOptions options;
   CLI::App app{"keyfleet ground station: stores and reports the fleet's keyframes"};

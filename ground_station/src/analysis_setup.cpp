@@ -20,6 +20,8 @@ std::unique_ptr<TextReader> make_configured_text_reader(const TextReadingConfig&
   params.tessdata_dir = config.tessdata_dir;
   params.language = config.language;
   params.min_confidence = static_cast<float>(config.min_confidence);
+  params.min_long_side = config.min_long_side;
+  params.min_word_length = config.min_word_length;
   return make_text_reader(params);
 }
 

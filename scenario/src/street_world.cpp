@@ -105,6 +105,8 @@ SignImage paint_sign(const std::string& word, const TextureLibrary& library, std
   const int text_height = uniform_int(rng, 56, 96);
   int baseline = 0;
   const cv::Size text = font.getTextSize(word, text_height, -1, &baseline);
+  // Some installed fonts lack glyphs (or metrics) for a word: no sign rather than a crash.
+  if (text.width <= 0 || text.height <= 0 || baseline < 0) return {};
   const int pad_x = uniform_int(rng, text_height / 4, text_height), pad_y = text_height / 3;
   const cv::Size size(text.width + 2 * pad_x, text.height + baseline + 2 * pad_y);
   // Contrast varies from strong to weak: real signs are not all legible.
@@ -265,6 +267,7 @@ StreetWorld build_street(const ScenarioConfig& config, std::mt19937_64& rng) {
         const std::string& word =
             library.words()[std::size_t(uniform_int(rng, 0, int(library.words().size()) - 1))];
         SignImage sign = paint_sign(word, library, rng);
+        if (sign.texture.empty()) continue;
         const double sign_h = (k == 0 ? uniform(rng, 0.6, 1.2) : uniform(rng, 0.35, 0.6));
         const double sign_w = sign_h * sign.texture.cols / sign.texture.rows;
         if (sign_w > w * 0.95) continue;

@@ -29,10 +29,13 @@ const std::vector<std::string> kShopWords = {
     "PARKING",  "EXIT",     "OPEN",    "SALE",     "ICE CREAM", "FRUIT",    "FISH",    "BEAUTY",
     "HARDWARE", "KIOSK",    "LOTTERY", "ANTIQUES", "BICYCLES",  "PHOTO",    "TRAVEL",  "INSURANCE"};
 
-bool is_symbol_font(const std::string& name) {
+// Fonts without ordinary letters: symbol sets, and the TeX math fonts that fonts-lyx (pulled
+// in by python3-matplotlib) installs beside the text fonts.
+bool is_symbol_font(const fs::path& file) {
+  const std::string name = file.filename().string();
   for (const char* symbolic : {"Symbol", "D050000L", "Dingbat", "dingbat"})
     if (name.find(symbolic) != std::string::npos) return true;
-  return false;
+  return file.parent_path().filename() == "lyx";
 }
 
 std::vector<fs::path> sorted_files(const std::string& folder, const std::set<std::string>& exts,
@@ -121,7 +124,7 @@ TextureLibrary::TextureLibrary(const TextureConfig& config) {
   std::vector<fs::path> candidates;
   for (const auto& folder : config.font_folders)
     for (const auto& file : sorted_files(folder, {".ttf", ".otf"}, true))
-      if (!is_symbol_font(file.filename().string())) candidates.push_back(file);
+      if (!is_symbol_font(file)) candidates.push_back(file);
   const std::size_t step = std::max<std::size_t>(1, candidates.size() / kMaxFonts);
   for (std::size_t i = 0; i < candidates.size() && fonts_.size() < kMaxFonts; i += step) {
     auto font = cv::freetype::createFreeType2();

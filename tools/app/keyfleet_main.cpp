@@ -172,6 +172,7 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  keyfleet::limit_openmp_to_one_thread(argv);
   keyfleet::block_termination_signals();
   keyfleet::keep_image_buffers_in_heap();
   CLI::App app{"keyfleet: keyframe sharing for robot fleets over weak links"};

@@ -45,6 +45,13 @@ StationConfig run_station_config(const fs::path& station) {
 }
 
 std::string format_time(std::int64_t ns) {
+  // Replayed scenarios count time from their first frame: show it as such, not as 1970.
+  constexpr std::int64_t kYear2000Ns = 946'684'800LL * 1'000'000'000LL;
+  if (ns < kYear2000Ns) {
+    std::ostringstream out;
+    out << "t+" << std::fixed << std::setprecision(3) << double(ns) * 1e-9 << " s";
+    return out.str();
+  }
   const std::time_t seconds = static_cast<std::time_t>(ns / 1000000000);
   std::tm utc{};
   gmtime_r(&seconds, &utc);
@@ -109,7 +116,7 @@ void query_words(const std::string& run, const std::string& text, std::size_t li
     return;
   }
   std::cout << std::left << std::setw(14) << "robot" << std::setw(10) << "keyframe" << std::setw(26)
-            << "captured (UTC)" << std::setw(16) << "word" << std::setw(7) << "conf"
+            << "captured" << std::setw(16) << "word" << std::setw(7) << "conf"
             << "box (x,y,w,h)\n";
   for (const auto& w : words) {
     std::cout << std::left << std::setw(14) << w.keyframe.robot_id << std::setw(10)

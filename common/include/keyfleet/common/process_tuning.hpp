@@ -8,3 +8,14 @@ namespace keyfleet {
 void keep_image_buffers_in_heap();
 
 }  // namespace keyfleet
+
+namespace keyfleet {
+
+// Tesseract splits each read over OpenMP threads with explicit num_threads clauses, which
+// only OMP_THREAD_LIMIT bounds, and OpenMP reads it once, when the library loads. Processes
+// that run one reader per worker thread call this first thing in main: when the variable is
+// unset it is set to 1 and the process re-executes itself (the same arguments); on failure
+// it carries on as it is. A user's own OMP_THREAD_LIMIT is kept.
+void limit_openmp_to_one_thread(char** argv);
+
+}  // namespace keyfleet
