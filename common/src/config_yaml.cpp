@@ -97,6 +97,16 @@ Check<std::string> robot_id_check() {
 }
 const std::set<std::string> kLogLevels = {"trace", "debug", "info", "warn", "error"};
 
+template <class T>
+struct IsVector : std::false_type {};
+template <class T>
+struct IsVector<std::vector<T>> : std::true_type {};
+template <class T>
+struct IsStructVector : std::false_type {};
+template <class T>
+struct IsStructVector<std::vector<T>>
+    : std::bool_constant<std::is_class_v<T> && !std::is_same_v<T, std::string>> {};
+
 class Reader {
  public:
   Reader(YAML::Node node, std::string origin, std::string path)
@@ -176,10 +186,21 @@ class Reader {
       for (const auto& [value, name] : EnumNames<T>::kAll)
         if (text == name) return value;
       fail(child, where, "must be one of " + enum_choices<T>() + " (got '" + text + "')");
-    } else if constexpr (std::is_same_v<T, std::vector<std::string>>) {
+    } else if constexpr (IsVector<T>::value) {
       if (!child.IsSequence()) fail(child, where, "expected a list");
-      std::vector<std::string> out;
-      for (const auto& item : child) out.push_back(convert<std::string>(item, where));
+      T out;
+      for (const auto& item : child) {
+        using Item = typename T::value_type;
+        if constexpr (std::is_class_v<Item> && !std::is_same_v<Item, std::string>) {
+          Reader nested(item, origin_, where);
+          Item element;
+          visit(nested, element);
+          nested.finish();
+          out.push_back(std::move(element));
+        } else {
+          out.push_back(convert<Item>(item, where));
+        }
+      }
       return out;
     } else {
       if (!child.IsScalar()) fail(child, where, "expected a single value");
@@ -219,6 +240,15 @@ class Writer {
     if constexpr (std::is_enum_v<T>) {
       for (const auto& [v, name] : EnumNames<T>::kAll)
         if (v == value) node_[key] = name;
+    } else if constexpr (IsStructVector<T>::value) {
+      YAML::Node list(YAML::NodeType::Sequence);
+      for (auto element : value) {
+        YAML::Node child(YAML::NodeType::Map);
+        Writer nested(child);
+        visit(nested, element);
+        list.push_back(child);
+      }
+      node_[key] = list;
     } else {
       node_[key] = value;
     }
@@ -249,6 +279,7 @@ void visit(V& v, DdsSettings& c) {
           }));
   v.field("transport", c.transport);
   v.field("initial_peers", c.initial_peers);
+  v.field("shared_memory", c.shared_memory);
   v.field("lease_duration_s", c.lease_duration_s, positive());
   v.field("announcement_period_s", c.announcement_period_s, positive());
   v.field("keyframe_history_depth", c.keyframe_history_depth, between(1, 1000));
@@ -520,6 +551,40 @@ void visit(V& v, EvalConfig& c) {
   v.field("ocr_threads", c.ocr_threads, between(1, 64));
 }
 
+template <class V>
+void visit(V& v, LinkProfileConfig& c) {
+  v.field("name", c.name, Check<std::string>([](const std::string& s) {
+            return std::regex_match(s, std::regex("[A-Za-z0-9_.-]{1,32}"))
+                       ? std::string()
+                       : std::string("must match [A-Za-z0-9_.-]{1,32}");
+          }));
+  v.field("rate_kbit_s", c.rate_kbit_s, between(0.0, 1e7));
+  v.field("delay_ms", c.delay_ms, between(0.0, 10000.0));
+  v.field("loss_percent", c.loss_percent, between(0.0, 100.0));
+}
+
+template <class V>
+void visit(V& v, BandwidthExperimentConfig& c) {
+  v.field("name", c.name);
+  v.field("run_root", c.run_root);
+  v.field("drones", c.drones, Check<std::vector<int>>([](const std::vector<int>& counts) {
+            for (int n : counts)
+              if (n < 1 || n > 64) return std::string("every count must be between 1 and 64");
+            return counts.empty() ? std::string("must not be empty") : std::string();
+          }));
+  v.field("profiles", c.profiles);
+  v.field("links", c.links, Check<std::vector<std::string>>([](const std::vector<std::string>& l) {
+            for (const auto& kind : l)
+              if (kind != "flow_control" && kind != "netns")
+                return std::string("each must be flow_control or netns");
+            return l.empty() ? std::string("must not be empty") : std::string();
+          }));
+  v.field("netns_dds_cap_fraction", c.netns_dds_cap_fraction, between(0.0, 1.0));
+  v.field("bin_s", c.bin_s, between(0.01, 60.0));
+  v.field("python", c.python);
+  v.section("mission", c.mission);
+}
+
 // Cross-field rules that a single key cannot express.
 void validate(const AgentConfig& c, const std::string& origin) {
   const auto strategy = c.selector.strategy;
@@ -544,6 +609,10 @@ void validate(const MissionConfig& c, const std::string& origin) {
                       "' does not make valid robot ids ([A-Za-z0-9_-]{1,32})");
 }
 void validate(const StationConfig&, const std::string&) {}
+void validate(const BandwidthExperimentConfig& c, const std::string& origin) {
+  validate(c.mission, origin + " (mission)");
+  if (c.profiles.empty()) throw ConfigError(origin + ": profiles: must not be empty");
+}
 
 void validate(const ScenarioConfig& c, const std::string& origin) {
   if (c.street.building_min_width_m > c.street.building_max_width_m)
@@ -693,6 +762,15 @@ std::string to_yaml(const AgentConfig& config) { return emit(config); }
 std::string to_yaml(const StationConfig& config) { return emit(config); }
 std::string to_yaml(const MissionConfig& config) { return emit(config); }
 std::string to_yaml(const ScenarioConfig& config) { return emit(config); }
+std::string to_yaml(const BandwidthExperimentConfig& config) { return emit(config); }
+
+BandwidthExperimentConfig parse_bandwidth_experiment_config(const std::string& text,
+                                                            const std::string& origin) {
+  return parse<BandwidthExperimentConfig>(text, origin);
+}
+BandwidthExperimentConfig load_bandwidth_experiment_config(const std::string& path) {
+  return parse_bandwidth_experiment_config(read_file(path), path);
+}
 std::string to_yaml(const EvalConfig& config) { return emit(config); }
 
 }  // namespace keyfleet

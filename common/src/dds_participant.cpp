@@ -1,13 +1,19 @@
 #include "dds_participant.hpp"
 
-#include <fastdds/rtps/flowcontrol/FlowControllerDescriptor.hpp>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
 #include <fastrtps/utils/IPLocator.h>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/rtps/flowcontrol/FlowControllerDescriptor.hpp>
+
+#include <arpa/inet.h>
+#include <ifaddrs.h>
+#include <net/if.h>
+#include <netinet/in.h>
 
 #include <algorithm>
 #include <limits>
+#include <vector>
 
 #include "keyfleet/common/error.hpp"
 
@@ -35,6 +41,21 @@ Locator_t udp_locator(const std::string& address) {
   return locator;
 }
 
+std::vector<std::string> non_loopback_ipv4_addresses() {
+  std::vector<std::string> addresses;
+  ifaddrs* list = nullptr;
+  if (::getifaddrs(&list) != 0) return addresses;
+  for (const ifaddrs* it = list; it; it = it->ifa_next) {
+    if (!it->ifa_addr || it->ifa_addr->sa_family != AF_INET || (it->ifa_flags & IFF_LOOPBACK))
+      continue;
+    char text[INET_ADDRSTRLEN] = {};
+    const auto* in = reinterpret_cast<const sockaddr_in*>(it->ifa_addr);
+    if (::inet_ntop(AF_INET, &in->sin_addr, text, sizeof text)) addresses.emplace_back(text);
+  }
+  ::freeifaddrs(list);
+  return addresses;
+}
+
 fdds::DomainParticipantQos participant_qos(const DdsSettings& s, const std::string& name) {
   fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
   qos.name(name);
@@ -58,6 +79,19 @@ fdds::DomainParticipantQos participant_qos(const DdsSettings& s, const std::stri
     qos.wire_protocol().builtin.initialPeersList.push_back(udp_locator("127.0.0.1"));
     qos.wire_protocol().builtin.metatrafficUnicastLocatorList.push_back(udp_locator("127.0.0.1"));
   } else {
+    if (!s.shared_memory) {
+      // Built-in transports include shared memory, which crosses network namespaces.
+      qos.transport().use_builtin_transports = false;
+      auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+      udp->sendBufferSize = kUdpBufferBytes;
+      udp->receiveBufferSize = kUdpBufferBytes;
+      udp->maxInitialPeersRange = kMaxInitialPeersRange;
+      // Loopback carries nothing between namespaces, but announcing it makes a peer in another
+      // namespace (with the same ports) talk to itself: only the real interfaces.
+      for (const auto& address : non_loopback_ipv4_addresses())
+        udp->interfaceWhiteList.push_back(address);
+      qos.transport().user_transports.push_back(udp);
+    }
     for (const auto& peer : s.initial_peers)
       qos.wire_protocol().builtin.initialPeersList.push_back(udp_locator(peer));
   }
@@ -95,10 +129,11 @@ Participant::Participant(const DdsSettings& settings, const std::string& name, L
     throw StartupError("cannot create DDS publisher/subscriber for partition '" +
                        settings.partition + "'");
   }
-  logger_->info(
-      "DDS participant '{}' on domain {} partition '{}' ({})", name, settings.domain_id,
-      settings.partition,
-      settings.transport == DdsSettings::Transport::kLocalhost ? "localhost only" : "network");
+  logger_->info("DDS participant '{}' on domain {} partition '{}' ({})", name, settings.domain_id,
+                settings.partition,
+                settings.transport == DdsSettings::Transport::kLocalhost ? "localhost only"
+                : settings.shared_memory                                 ? "network"
+                                                                         : "network, UDPv4 only");
   if (settings.max_bytes_per_s > 0)
     logger_->info("keyframe writer capped at {} bytes/s (flow controller, {} ms periods)",
                   settings.max_bytes_per_s, kLinkCapPeriodMs);

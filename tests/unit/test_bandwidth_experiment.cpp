@@ -1,6 +1,7 @@
 // The bandwidth experiment's arithmetic on hand-made cases with known answers.
 #include <gtest/gtest.h>
 
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 
@@ -102,6 +103,36 @@ TEST(RobotMetrics, WithoutAgentStatsOrWireCountersNothingIsInvented) {
   EXPECT_FALSE(m.wire.has_value());
   EXPECT_DOUBLE_EQ(m.saving_vs_stream_all, 0);
   EXPECT_EQ(robot_metrics("nobody", {}, std::nullopt, std::nullopt).delivered, 0u);
+}
+
+TEST(RobotMetrics, LatencyCountsFromTheStreamStartWhenCaptureTimesAreRelative) {
+  // Frames stamped 1 s and 2 s into a stream that began at t = 100 s.
+  const auto m = robot_metrics("a", {kf("a", 1.0, 101.25, 10), kf("a", 2.0, 102.75, 10)},
+                               std::nullopt, std::nullopt, 100 * kSecond);
+  EXPECT_NEAR(m.latency_median_ms, 500, 1e-6);
+}
+
+TEST(StreamStart, ReadsTheLocalTimeOfTheStationMatchedLine) {
+  const auto path = std::filesystem::temp_directory_path() / "keyfleet_stream_start_test.log";
+  {
+    std::ofstream log(path);
+    log << "2024-05-01 17:33:30.900 [drone_0] info streaming from generated\n"
+        << "2024-05-01 17:33:31.123 [drone_0] info station matched\n";
+  }
+  std::tm tm{};
+  tm.tm_year = 124;
+  tm.tm_mon = 4;
+  tm.tm_mday = 1;
+  tm.tm_hour = 17;
+  tm.tm_min = 33;
+  tm.tm_sec = 31;
+  tm.tm_isdst = -1;
+  const std::int64_t expected = static_cast<std::int64_t>(std::mktime(&tm)) * kSecond + 123'000'000;
+  const auto start = stream_start_from_log(path.string());
+  ASSERT_TRUE(start.has_value());
+  EXPECT_EQ(*start, expected);
+  EXPECT_FALSE(stream_start_from_log("/nonexistent.log").has_value());
+  std::filesystem::remove(path);
 }
 
 TEST(StationRecords, MissingDatabaseIsAStartupErrorNamingTheFile) {

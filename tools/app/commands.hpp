@@ -23,6 +23,7 @@ void run_reporting(F&& f) {
 
 void add_station_commands(CLI::App& app);
 void add_vocabulary_commands(CLI::App& app);
+void add_experiment_commands(CLI::App& app);
 void add_eval_commands(CLI::App& app);
 void add_ocr_commands(CLI::App& app);
 }  // namespace keyfleet::commands

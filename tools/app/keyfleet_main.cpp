@@ -254,6 +254,7 @@ int main(int argc, char** argv) {
   keyfleet::commands::add_station_commands(app);
   keyfleet::commands::add_ocr_commands(app);
   keyfleet::commands::add_vocabulary_commands(app);
+  keyfleet::commands::add_experiment_commands(app);
   keyfleet::commands::add_eval_commands(app);
 
   CLI11_PARSE(app, argc, argv);

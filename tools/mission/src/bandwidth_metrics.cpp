@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 
@@ -57,7 +59,7 @@ double saving_ratio(std::uint64_t baseline_bytes, std::uint64_t sent_bytes) {
 RobotMetrics robot_metrics(const std::string& robot_id,
                            const std::vector<DeliveredKeyframe>& keyframes,
                            const std::optional<AgentTotals>& totals,
-                           const std::optional<WireBytes>& wire) {
+                           const std::optional<WireBytes>& wire, std::int64_t capture_origin_ns) {
   RobotMetrics m;
   m.robot_id = robot_id;
   std::vector<DeliveredKeyframe> mine;
@@ -66,7 +68,8 @@ RobotMetrics robot_metrics(const std::string& robot_id,
     if (k.robot_id != robot_id) continue;
     mine.push_back(k);
     m.payload_bytes += k.serialized_bytes;
-    latencies_ms.push_back(static_cast<double>(k.received_ns - k.capture_time_ns) / 1e6);
+    latencies_ms.push_back(
+        static_cast<double>(k.received_ns - (capture_origin_ns + k.capture_time_ns)) / 1e6);
   }
   m.delivered = mine.size();
   m.latency_median_ms = median(latencies_ms);
@@ -124,6 +127,29 @@ StationRecords read_station_records(const std::string& database_path) {
     throw StartupError(database_path + ": not a readable station database (" + e.what() + ")");
   }
   return records;
+}
+
+std::optional<std::int64_t> stream_start_from_log(const std::string& agent_log_path) {
+  std::ifstream log(agent_log_path);
+  for (std::string line; std::getline(log, line);) {
+    if (line.find("station matched") == std::string::npos &&
+        line.find("streaming anyway") == std::string::npos)
+      continue;
+    std::tm tm{};
+    int millis = 0;
+    // "2024-05-01 17:33:31.123 [agent] info station matched"
+    if (std::sscanf(line.c_str(), "%d-%d-%d %d:%d:%d.%d", &tm.tm_year, &tm.tm_mon, &tm.tm_mday,
+                    &tm.tm_hour, &tm.tm_min, &tm.tm_sec, &millis) != 7)
+      continue;
+    tm.tm_year -= 1900;
+    tm.tm_mon -= 1;
+    tm.tm_isdst = -1;
+    const std::time_t seconds = std::mktime(&tm);
+    if (seconds < 0) continue;
+    return static_cast<std::int64_t>(seconds) * 1'000'000'000 +
+           static_cast<std::int64_t>(millis) * 1'000'000;
+  }
+  return std::nullopt;
 }
 
 std::uint64_t count_refused_writes(const std::string& agent_log_path) {

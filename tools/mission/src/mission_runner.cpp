@@ -83,6 +83,14 @@ MissionRunner::MissionRunner(MissionConfig config, MissionBinaries binaries, Log
       logger_(std::move(logger)),
       progress_(progress) {}
 
+std::vector<std::string> MissionRunner::command(const std::string& process,
+                                                std::vector<std::string> argv) const {
+  if (!hooks_.command_prefix) return argv;
+  std::vector<std::string> full = hooks_.command_prefix(process);
+  full.insert(full.end(), argv.begin(), argv.end());
+  return full;
+}
+
 MissionResult MissionRunner::run(const StopToken& stop) {
   MissionResult result;
   const fs::path run_dir = fs::absolute(config_.run_root) /
@@ -125,11 +133,11 @@ MissionResult MissionRunner::run(const StopToken& stop) {
   progress_ << robot_ids.size() << " drone(s) + station\n" << std::flush;
   const fs::path station_dir = run_dir / "station";
   fs::create_directories(station_dir);
-  ChildProcess station(
-      "ground_station",
-      {binaries_.ground_station, "--config", (run_dir / "config" / "station.yaml").string(),
-       "--run-dir", station_dir.string()},
-      (station_dir / "station.log").string());
+  ChildProcess station("ground_station",
+                       command("ground_station", {binaries_.ground_station, "--config",
+                                                  (run_dir / "config" / "station.yaml").string(),
+                                                  "--run-dir", station_dir.string()}),
+                       (station_dir / "station.log").string());
 
   std::vector<std::unique_ptr<ChildProcess>> agents;
   for (std::size_t i = 0; i < robot_ids.size(); ++i) {
@@ -139,14 +147,15 @@ MissionResult MissionRunner::run(const StopToken& stop) {
     agent.source.seed = config_.agent.source.seed + static_cast<std::uint64_t>(i);
     agent.dds.domain_id = domain;
     agent.dds.partition = partition;
+    if (hooks_.adjust_agent) hooks_.adjust_agent(i, agent);
     const fs::path agent_dir = run_dir / agent.robot_id;
     fs::create_directories(agent_dir);
     const fs::path agent_config = run_dir / "config" / (agent.robot_id + ".yaml");
     write_text(agent_config, to_yaml(agent));
     agents.push_back(std::make_unique<ChildProcess>(
         agent.robot_id,
-        std::vector<std::string>{binaries_.robot_agent, "--config", agent_config.string(),
-                                 "--run-dir", agent_dir.string()},
+        command(agent.robot_id, {binaries_.robot_agent, "--config", agent_config.string(),
+                                 "--run-dir", agent_dir.string()}),
         (agent_dir / "agent.log").string()));
   }
 

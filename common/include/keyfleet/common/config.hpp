@@ -18,6 +18,10 @@ struct DdsSettings {
   std::string partition = "keyfleet";  // overridden by --partition / KEYFLEET_PARTITION
   Transport transport = Transport::kLocalhost;
   std::vector<std::string> initial_peers;  // kNetwork: IPv4 addresses of other hosts
+  // kNetwork: also shared memory with peers Fast DDS takes for the same host. false = UDPv4
+  // only, on the non-loopback interfaces, so that processes in separate network namespaces
+  // really use their links.
+  bool shared_memory = true;
   double lease_duration_s = 4.0;           // a silent peer is dropped after this long
   double announcement_period_s = 1.0;      // participant announcements
   int keyframe_history_depth = 5;          // KEEP_LAST depth of the keyframe writer
@@ -296,17 +300,46 @@ struct EvalConfig {
   int ocr_threads = 2;             // text readers at once (one Tesseract each)
 };
 
+// One link of the bandwidth experiment, per drone (not shared between drones).
+struct LinkProfileConfig {
+  std::string name = "unlimited";  // [A-Za-z0-9_.-]
+  double rate_kbit_s = 0;          // 0 = unlimited
+  double delay_ms = 0;             // netns links only, and only where the kernel has netem
+  double loss_percent = 0;         // netns links only, and only where the kernel has netem
+};
+
+// `keyfleet experiment bandwidth`: one mission per drone count x link kind x profile.
+struct BandwidthExperimentConfig {
+  std::string name = "bandwidth";
+  std::string run_root = "runs";  // the experiment's folder: <run_root>/<name>-<time>-<pid>/
+  std::vector<int> drones = {2, 4, 8};
+  std::vector<LinkProfileConfig> profiles = {LinkProfileConfig{}};
+  // flow_control: each agent's DDS flow controller at the profile's rate (localhost transport).
+  // netns (root only, else skipped with the reason): each drone in its own network namespace,
+  // a veth link to the station's namespace shaped by tbf (+ netem where the kernel has it).
+  std::vector<std::string> links = {"flow_control", "netns"};
+  // netns: the agents' DDS cap as a fraction of the link rate, so that RTPS, UDP and IP
+  // headers fit under it; at 0.9 a 500 kbit/s tbf link overflowed and most bytes on the wire
+  // were repairs (0 = no DDS cap, the link alone limits).
+  double netns_dds_cap_fraction = 0.7;
+  double bin_s = 1.0;                     // bandwidth-over-time bins (s)
+  std::string python = "/usr/bin/python3";  // runs tools/report/bandwidth_report.py (matplotlib)
+  MissionConfig mission;  // agent and station templates; name and drones are set per mission
+};
+
 // Loaders throw ConfigError naming the file, the key and what is allowed.
 AgentConfig load_agent_config(const std::string& path);
 StationConfig load_station_config(const std::string& path);
 MissionConfig load_mission_config(const std::string& path);
 ScenarioConfig load_scenario_config(const std::string& path);
+BandwidthExperimentConfig load_bandwidth_experiment_config(const std::string& path);
 EvalConfig load_eval_config(const std::string& path);
 
 std::string to_yaml(const AgentConfig& config);
 std::string to_yaml(const StationConfig& config);
 std::string to_yaml(const MissionConfig& config);
 std::string to_yaml(const ScenarioConfig& config);
+std::string to_yaml(const BandwidthExperimentConfig& config);
 std::string to_yaml(const EvalConfig& config);
 
 // Parses YAML text (for tests and generated configs); `origin` names it in errors.
@@ -314,6 +347,8 @@ AgentConfig parse_agent_config(const std::string& text, const std::string& origi
 StationConfig parse_station_config(const std::string& text, const std::string& origin);
 MissionConfig parse_mission_config(const std::string& text, const std::string& origin);
 ScenarioConfig parse_scenario_config(const std::string& text, const std::string& origin);
+BandwidthExperimentConfig parse_bandwidth_experiment_config(const std::string& text,
+                                                            const std::string& origin);
 EvalConfig parse_eval_config(const std::string& text, const std::string& origin);
 
 bool is_valid_robot_id(const std::string& robot_id);

@@ -82,13 +82,21 @@ double throughput_bytes_per_s(const std::vector<DeliveredKeyframe>& keyframes);
 // baseline / sent, 0 when nothing was sent.
 double saving_ratio(std::uint64_t baseline_bytes, std::uint64_t sent_bytes);
 
+// `capture_origin_ns`: the wall-clock time of capture_time_ns 0. Generated and scenario
+// sources stamp frames from the start of the stream, so latency needs the stream's start
+// (0 when capture times are already wall-clock times).
 RobotMetrics robot_metrics(const std::string& robot_id,
                            const std::vector<DeliveredKeyframe>& keyframes,
                            const std::optional<AgentTotals>& totals,
-                           const std::optional<WireBytes>& wire);
+                           const std::optional<WireBytes>& wire,
+                           std::int64_t capture_origin_ns = 0);
 
 // Reads a station database after the mission. Throws StartupError naming the file.
 StationRecords read_station_records(const std::string& database_path);
+
+// The wall-clock time an agent began streaming (its "station matched" or "streaming
+// anyway" log line, local time, millisecond resolution); nullopt when not found.
+std::optional<std::int64_t> stream_start_from_log(const std::string& agent_log_path);
 
 // Counts the agent's "not sent now" warnings (writes refused by a full capped writer).
 std::uint64_t count_refused_writes(const std::string& agent_log_path);

@@ -1,4 +1,5 @@
 #pragma once
+#include <functional>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -21,6 +22,15 @@ struct MissionResult {
   std::vector<std::string> failures;  // one line per failed process, saying why
 };
 
+// Optional changes to how a mission's processes run (the bandwidth experiment's links).
+struct MissionHooks {
+  // Called for drone `index` once its config is made, before it is written.
+  std::function<void(std::size_t index, AgentConfig&)> adjust_agent;
+  // Words put before a process's command line ("ground_station" or a robot id), e.g.
+  // `ip netns exec NS`.
+  std::function<std::vector<std::string>(const std::string& process)> command_prefix;
+};
+
 // Runs one mission on this machine: a ground station and N agents as separate processes
 // on a domain id and partition of their own, progress on `progress`, then drains and
 // stops the station and collects its report.
@@ -29,8 +39,12 @@ class MissionRunner {
   MissionRunner(MissionConfig config, MissionBinaries binaries, Logger logger,
                 std::ostream& progress);
   MissionResult run(const StopToken& stop);
+  void set_hooks(MissionHooks hooks) { hooks_ = std::move(hooks); }
 
  private:
+  std::vector<std::string> command(const std::string& process, std::vector<std::string> argv) const;
+
+  MissionHooks hooks_;
   MissionConfig config_;
   MissionBinaries binaries_;
   Logger logger_;

@@ -1,0 +1,74 @@
+#pragma once
+// `keyfleet experiment bandwidth`: missions of several fleet sizes over several emulated
+// links, each measured per robot from the station's database, written as results.json,
+// results.csv and (through tools/report/bandwidth_report.py) report.md with plots.
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "keyfleet/common/config.hpp"
+#include "keyfleet/common/logging.hpp"
+#include "keyfleet/common/shutdown_signal.hpp"
+#include "keyfleet/mission/bandwidth_metrics.hpp"
+#include "keyfleet/mission/mission_runner.hpp"
+
+namespace keyfleet::mission {
+
+struct RobotOutcome {
+  RobotMetrics metrics;
+  std::uint64_t frames_seen = 0;
+  bool latency_measured = false;             // the stream start was found in the agent log
+  std::vector<std::uint64_t> bytes_per_bin;  // from the mission's first receipt
+};
+
+struct ExperimentMission {
+  std::string name;
+  std::string link;  // flow_control | netns
+  LinkProfileConfig profile;
+  int drones = 0;
+  std::uint64_t dds_cap_bytes_per_s = 0;  // per agent; 0 = none
+  bool ok = false;
+  double wall_s = 0;
+  std::string run_dir;
+  std::vector<std::string> failures;
+  std::vector<std::string> notes;  // what the link applied and did not
+  std::vector<RobotOutcome> robots;
+};
+
+struct ExperimentResult {
+  std::string dir;
+  std::vector<ExperimentMission> missions;
+  std::vector<std::string> skipped;  // e.g. "netns: not running as root ..."
+  bool interrupted = false;
+  bool report_written = false;
+  std::string report_error;
+};
+
+class BandwidthExperiment {
+ public:
+  BandwidthExperiment(BandwidthExperimentConfig config, MissionBinaries binaries, Logger logger,
+                      std::ostream& progress);
+  ExperimentResult run(const StopToken& stop);
+
+ private:
+  ExperimentMission run_mission(const std::string& dir, const std::string& link, int drones,
+                                const LinkProfileConfig& profile, const StopToken& stop);
+
+  BandwidthExperimentConfig config_;
+  MissionBinaries binaries_;
+  Logger logger_;
+  std::ostream& progress_;
+};
+
+// results.json / results.csv of an experiment (also read by the plotting script).
+void write_experiment_json(const ExperimentResult& result, const BandwidthExperimentConfig& config,
+                           const std::string& path);
+void write_experiment_csv(const ExperimentResult& result, const std::string& path);
+// The per-mission summary table printed at the end.
+std::string experiment_table(const ExperimentResult& result);
+
+// tools/report/bandwidth_report.py, beside the binaries (share/keyfleet/report) or in the
+// source tree; empty when neither exists.
+std::string find_report_script();
+
+}  // namespace keyfleet::mission

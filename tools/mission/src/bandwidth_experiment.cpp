@@ -1,0 +1,207 @@
+#include "keyfleet/mission/bandwidth_experiment.hpp"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+
+#include "keyfleet/common/error.hpp"
+#include "keyfleet/mission/link_shaping.hpp"
+
+namespace keyfleet::mission {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string timestamp() {
+  const std::time_t now = std::time(nullptr);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y%m%d-%H%M%S", std::localtime(&now));
+  return text;
+}
+
+std::uint64_t rate_bytes_per_s(double kbit_s) {
+  return static_cast<std::uint64_t>(kbit_s * 1000.0 / 8.0);
+}
+
+}  // namespace
+
+BandwidthExperiment::BandwidthExperiment(BandwidthExperimentConfig config, MissionBinaries binaries,
+                                         Logger logger, std::ostream& progress)
+    : config_(std::move(config)),
+      binaries_(std::move(binaries)),
+      logger_(std::move(logger)),
+      progress_(progress) {
+  if (!config_.mission.scenario.empty() || !config_.mission.scenario_dir.empty())
+    throw StartupError(
+        "experiment: mission.scenario/scenario_dir decide the number of drones; the bandwidth "
+        "experiment sets it per mission, so use a generated, folder or video source");
+}
+
+ExperimentResult BandwidthExperiment::run(const StopToken& stop) {
+  ExperimentResult result;
+  const fs::path dir = fs::absolute(config_.run_root) /
+                       (config_.name + "-" + timestamp() + "-" + std::to_string(::getpid()));
+  fs::create_directories(dir / "config");
+  result.dir = dir.string();
+  std::ofstream(dir / "config" / "experiment.yaml") << to_yaml(config_);
+  progress_ << "bandwidth experiment '" << config_.name << "': " << dir.string() << "\n";
+
+  std::vector<std::string> links;
+  for (const auto& link : config_.links) {
+    if (link == "netns") {
+      if (const auto reason = netns_unavailable_reason()) {
+        result.skipped.push_back("netns links skipped: " + *reason);
+        progress_ << result.skipped.back() << "\n" << std::flush;
+        continue;
+      }
+      remove_stale_namespaces(logger_);
+    }
+    links.push_back(link);
+  }
+  for (const auto& link : links)
+    for (int drones : config_.drones)
+      for (const auto& profile : config_.profiles) {
+        if (stop.requested()) {
+          result.interrupted = true;
+          break;
+        }
+        result.missions.push_back(run_mission(dir.string(), link, drones, profile, stop));
+      }
+  if (stop.requested()) result.interrupted = true;
+
+  write_experiment_json(result, config_, (dir / "results.json").string());
+  write_experiment_csv(result, (dir / "results.csv").string());
+  const std::string script = find_report_script();
+  if (script.empty()) {
+    result.report_error = "tools/report/bandwidth_report.py not found";
+  } else {
+    const auto plot = run_command({config_.python, script, dir.string()});
+    result.report_written = plot.exit_code == 0;
+    if (!result.report_written)
+      result.report_error = config_.python + " " + script + " failed: " + plot.output;
+  }
+  return result;
+}
+
+ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const std::string& link,
+                                                   int drones, const LinkProfileConfig& profile,
+                                                   const StopToken& stop) {
+  ExperimentMission out;
+  out.link = link;
+  out.profile = profile;
+  out.drones = drones;
+  out.name = "d" + std::to_string(drones) + "-" + link + "-" + profile.name;
+  progress_ << "\n=== " << out.name << " ===\n" << std::flush;
+
+  MissionConfig mission = config_.mission;
+  mission.name = out.name;
+  mission.drones = drones;
+  mission.run_root = (fs::path(dir) / "missions").string();
+  std::vector<std::string> robot_ids;
+  for (int i = 0; i < drones; ++i) robot_ids.push_back(mission.robot_id_prefix + std::to_string(i));
+
+  std::unique_ptr<NetnsLinks> netns;
+  MissionHooks hooks;
+  const std::uint64_t rate = rate_bytes_per_s(profile.rate_kbit_s);
+  if (link == "flow_control") {
+    out.dds_cap_bytes_per_s = rate;
+    out.notes.push_back(rate > 0 ? "DDS flow controller at " + std::to_string(rate) +
+                                       " bytes/s per agent, localhost transport"
+                                 : "no cap, localhost transport");
+    if (profile.delay_ms > 0 || profile.loss_percent > 0)
+      out.notes.push_back("delay/loss NOT applied: only netns links can add them");
+  } else {
+    try {
+      netns = std::make_unique<NetnsLinks>(robot_ids, profile, logger_);
+    } catch (const StartupError& e) {
+      out.failures.push_back(e.what());
+      progress_ << "skipped: " << e.what() << "\n";
+      return out;
+    }
+    out.notes = netns->notes();
+    out.dds_cap_bytes_per_s =
+        static_cast<std::uint64_t>(static_cast<double>(rate) * config_.netns_dds_cap_fraction);
+    if (out.dds_cap_bytes_per_s > 0)
+      out.notes.push_back("DDS flow controller at " + std::to_string(out.dds_cap_bytes_per_s) +
+                          " bytes/s per agent (netns_dds_cap_fraction of the link rate)");
+    mission.station.dds.transport = DdsSettings::Transport::kNetwork;
+    mission.station.dds.shared_memory = false;
+    mission.station.dds.initial_peers = netns->drone_addresses();
+    NetnsLinks* links = netns.get();
+    hooks.command_prefix = [links](const std::string& process) {
+      return links->command_prefix(process);
+    };
+    hooks.adjust_agent = [links](std::size_t i, AgentConfig& agent) {
+      agent.dds.transport = DdsSettings::Transport::kNetwork;
+      agent.dds.shared_memory = false;
+      agent.dds.initial_peers = {links->station_address(i)};
+    };
+  }
+  mission.agent.dds.max_bytes_per_s = out.dds_cap_bytes_per_s;
+  for (const auto& note : out.notes) progress_ << "link: " << note << "\n";
+
+  const auto start = std::chrono::steady_clock::now();
+  MissionRunner runner(mission, binaries_, logger_, progress_);
+  runner.set_hooks(hooks);
+  const MissionResult mission_result = runner.run(stop);
+  out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  out.run_dir = mission_result.run_dir;
+  out.failures = mission_result.failures;
+
+  try {
+    const auto records =
+        read_station_records((fs::path(out.run_dir) / "station" / "station.sqlite").string());
+    std::int64_t first_ns = 0;
+    for (const auto& k : records.keyframes)
+      if (first_ns == 0 || k.received_ns < first_ns) first_ns = k.received_ns;
+    for (const auto& robot : robot_ids) {
+      RobotOutcome r;
+      const fs::path log = fs::path(out.run_dir) / robot / "agent.log";
+      const auto origin = stream_start_from_log(log.string());
+      const auto agent = records.agents.find(robot);
+      std::optional<AgentTotals> totals;
+      if (agent != records.agents.end()) totals = agent->second;
+      r.metrics = robot_metrics(robot, records.keyframes, totals,
+                                netns ? netns->counters(robot) : std::nullopt, origin.value_or(0));
+      r.latency_measured = origin.has_value();
+      r.metrics.refused_writes = count_refused_writes(log.string());
+      r.frames_seen = totals ? totals->frames_seen : 0;
+      std::vector<DeliveredKeyframe> mine;
+      for (const auto& k : records.keyframes)
+        if (k.robot_id == robot) mine.push_back(k);
+      r.bytes_per_bin =
+          bytes_per_bin(mine, first_ns, static_cast<std::int64_t>(config_.bin_s * 1e9));
+      out.robots.push_back(std::move(r));
+    }
+  } catch (const StartupError& e) {
+    out.failures.push_back(e.what());
+  }
+  out.ok = out.failures.empty();
+  progress_ << out.name << (out.ok ? ": OK" : ": FAILED") << " in " << static_cast<int>(out.wall_s)
+            << " s\n"
+            << std::flush;
+  return out;
+}
+
+std::string find_report_script() {
+  std::error_code error;
+  const fs::path self = fs::read_symlink("/proc/self/exe", error);
+  std::vector<fs::path> candidates;
+  if (!error)
+    candidates.push_back(self.parent_path().parent_path() / "share" / "keyfleet" / "report" /
+                         "bandwidth_report.py");
+#ifdef KEYFLEET_REPORT_SOURCE_DIR
+  candidates.push_back(fs::path(KEYFLEET_REPORT_SOURCE_DIR) / "bandwidth_report.py");
+#endif
+  for (const auto& candidate : candidates)
+    if (fs::exists(candidate)) return candidate.string();
+  return {};
+}
+
+}  // namespace keyfleet::mission

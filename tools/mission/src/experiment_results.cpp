@@ -1,0 +1,170 @@
+// The bandwidth experiment's files: results.json (everything, for the plots), results.csv
+// (one row per mission and robot) and the summary table.
+#include <sys/utsname.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <ctime>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "keyfleet/common/error.hpp"
+#include "keyfleet/mission/bandwidth_experiment.hpp"
+
+namespace keyfleet::mission {
+namespace {
+
+using nlohmann::json;
+
+json machine() {
+  json m;
+  char host[256] = {};
+  ::gethostname(host, sizeof host - 1);
+  m["hostname"] = host;
+  m["cpus"] = std::thread::hardware_concurrency();
+  utsname uts{};
+  if (::uname(&uts) == 0) m["kernel"] = std::string(uts.sysname) + " " + uts.release;
+  const std::time_t now = std::time(nullptr);
+  char date[64];
+  std::strftime(date, sizeof date, "%Y-%m-%d %H:%M:%S %Z", std::localtime(&now));
+  m["date"] = date;
+  return m;
+}
+
+json robot_json(const RobotOutcome& r) {
+  const RobotMetrics& m = r.metrics;
+  json j;
+  j["robot_id"] = m.robot_id;
+  j["delivered"] = m.delivered;
+  j["frames_seen"] = r.frames_seen;
+  j["latency_median_ms"] = r.latency_measured ? json(m.latency_median_ms) : json(nullptr);
+  j["latency_p95_ms"] = r.latency_measured ? json(m.latency_p95_ms) : json(nullptr);
+  j["dropped"] = m.dropped;
+  j["resent"] = m.resent;
+  j["refused_writes"] = m.refused_writes;
+  j["payload_bytes"] = m.payload_bytes;
+  j["sent_bytes"] = m.sent_bytes;
+  j["wire_tx_bytes"] = m.wire ? json(m.wire->tx_bytes) : json(nullptr);  // null: not measured
+  j["wire_rx_bytes"] = m.wire ? json(m.wire->rx_bytes) : json(nullptr);
+  j["throughput_bytes_per_s"] = m.throughput_bytes_per_s;
+  j["stream_all_bytes"] = m.stream_all_bytes;
+  j["stream_all_estimated"] = m.stream_all_estimated;
+  j["vslam_keyframe_bytes"] = m.vslam_keyframe_bytes;
+  j["vslam_keyframe_estimated"] = m.vslam_keyframe_estimated;
+  j["saving_vs_stream_all"] = m.saving_vs_stream_all;
+  j["saving_vs_vslam"] = m.saving_vs_vslam;
+  j["agent_stats_seen"] = m.agent_stats_seen;
+  j["bytes_per_bin"] = r.bytes_per_bin;
+  return j;
+}
+
+std::string megabytes(std::uint64_t bytes) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.2f", static_cast<double>(bytes) / 1e6);
+  return text;
+}
+
+}  // namespace
+
+void write_experiment_json(const ExperimentResult& result, const BandwidthExperimentConfig& config,
+                           const std::string& path) {
+  json root;
+  root["experiment"] = config.name;
+  root["machine"] = machine();
+  root["bin_s"] = config.bin_s;
+  root["skipped"] = result.skipped;
+  root["interrupted"] = result.interrupted;
+  root["missions"] = json::array();
+  for (const auto& m : result.missions) {
+    json j;
+    j["name"] = m.name;
+    j["link"] = m.link;
+    j["profile"] = {{"name", m.profile.name},
+                    {"rate_kbit_s", m.profile.rate_kbit_s},
+                    {"delay_ms", m.profile.delay_ms},
+                    {"loss_percent", m.profile.loss_percent}};
+    j["drones"] = m.drones;
+    j["dds_cap_bytes_per_s"] = m.dds_cap_bytes_per_s;
+    j["ok"] = m.ok;
+    j["wall_s"] = m.wall_s;
+    j["run_dir"] = m.run_dir;
+    j["failures"] = m.failures;
+    j["notes"] = m.notes;
+    j["robots"] = json::array();
+    for (const auto& r : m.robots) j["robots"].push_back(robot_json(r));
+    root["missions"].push_back(j);
+  }
+  std::ofstream out(path);
+  out << root.dump(2) << "\n";
+  if (!out) throw StartupError("cannot write " + path);
+}
+
+void write_experiment_csv(const ExperimentResult& result, const std::string& path) {
+  std::ofstream out(path);
+  out << "mission,link,profile,rate_kbit_s,drones,robot_id,delivered,latency_median_ms,"
+         "latency_p95_ms,dropped,resent,refused_writes,payload_bytes,sent_bytes,wire_tx_bytes,"
+         "throughput_bytes_per_s,stream_all_bytes,stream_all_estimated,vslam_keyframe_bytes,"
+         "saving_vs_stream_all,saving_vs_vslam,mission_ok\n";
+  for (const auto& m : result.missions)
+    for (const auto& r : m.robots) {
+      const RobotMetrics& x = r.metrics;
+      out << m.name << "," << m.link << "," << m.profile.name << "," << m.profile.rate_kbit_s << ","
+          << m.drones << "," << x.robot_id << "," << x.delivered << ","
+          << (r.latency_measured ? std::to_string(x.latency_median_ms) : "") << ","
+          << (r.latency_measured ? std::to_string(x.latency_p95_ms) : "") << "," << x.dropped << ","
+          << x.resent << "," << x.refused_writes << "," << x.payload_bytes << "," << x.sent_bytes
+          << "," << (x.wire ? std::to_string(x.wire->tx_bytes) : "not measured") << ","
+          << x.throughput_bytes_per_s << "," << x.stream_all_bytes << ","
+          << (x.stream_all_estimated ? 1 : 0) << "," << x.vslam_keyframe_bytes << ","
+          << x.saving_vs_stream_all << "," << x.saving_vs_vslam << "," << (m.ok ? 1 : 0) << "\n";
+    }
+  if (!out) throw StartupError("cannot write " + path);
+}
+
+std::string experiment_table(const ExperimentResult& result) {
+  std::string table;
+  char line[256];
+  std::snprintf(line, sizeof line, "%-28s %4s %9s %9s %8s %7s %7s %9s %10s %10s %8s %8s\n",
+                "mission", "ok", "delivered", "lat.med", "lat.p95", "dropped", "resent", "payload",
+                "wire", "kB/s/robot", "x stream", "x vslam");
+  table += line;
+  for (const auto& m : result.missions) {
+    std::uint64_t delivered = 0, dropped = 0, resent = 0, payload = 0, wire = 0, stream = 0,
+                  vslam = 0;
+    bool wire_measured = !m.robots.empty();
+    std::vector<double> medians, p95s, rates;
+    for (const auto& r : m.robots) {
+      const RobotMetrics& x = r.metrics;
+      delivered += x.delivered;
+      dropped += x.dropped;
+      resent += x.resent;
+      payload += x.payload_bytes;
+      stream += x.stream_all_bytes;
+      vslam += x.vslam_keyframe_bytes;
+      if (x.wire)
+        wire += x.wire->tx_bytes;
+      else
+        wire_measured = false;
+      if (r.latency_measured && x.delivered > 0) {
+        medians.push_back(x.latency_median_ms);
+        p95s.push_back(x.latency_p95_ms);
+      }
+      rates.push_back(x.throughput_bytes_per_s / 1e3);
+    }
+    // Fleet figures: the median robot's latency, the worst robot's p95.
+    const double p95 = p95s.empty() ? 0 : *std::max_element(p95s.begin(), p95s.end());
+    std::snprintf(line, sizeof line,
+                  "%-28s %4s %9llu %7.0fms %6.0fms %7llu %7llu %7sMB %8s%s %10.1f %7.1fx %7.1fx\n",
+                  m.name.c_str(), m.ok ? "yes" : "NO", static_cast<unsigned long long>(delivered),
+                  median(medians), p95, static_cast<unsigned long long>(dropped),
+                  static_cast<unsigned long long>(resent), megabytes(payload).c_str(),
+                  wire_measured ? megabytes(wire).c_str() : "not meas.", wire_measured ? "MB" : "",
+                  median(rates), saving_ratio(stream, payload), saving_ratio(vslam, payload));
+    table += line;
+  }
+  return table;
+}
+
+}  // namespace keyfleet::mission

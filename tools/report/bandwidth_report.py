@@ -1,0 +1,184 @@
+#!/usr/bin/python3
+"""report.md and its plots for a `keyfleet experiment bandwidth` folder (reads results.json).
+
+Run with Debian's python3-matplotlib: /usr/bin/python3 tools/report/bandwidth_report.py DIR
+"""
+import json
+import statistics
+import sys
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # files only, no display
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def fleet(mission):
+    robots = mission["robots"]
+    total = lambda key: sum(r[key] or 0 for r in robots)
+    payload = total("payload_bytes")
+    wire = None if any(r["wire_tx_bytes"] is None for r in robots) or not robots \
+        else total("wire_tx_bytes")
+    medians = [r["latency_median_ms"] for r in robots
+               if r["latency_median_ms"] is not None and r["delivered"]]
+    p95s = [r["latency_p95_ms"] for r in robots
+            if r["latency_p95_ms"] is not None and r["delivered"]]
+    return {
+        "delivered": total("delivered"),
+        "dropped": total("dropped"),
+        "resent": total("resent"),
+        "refused": total("refused_writes"),
+        "payload": payload,
+        "wire": wire,
+        "lat_med": statistics.median(medians) if medians else None,
+        "lat_p95": max(p95s) if p95s else None,
+        "rate": statistics.median([r["throughput_bytes_per_s"] for r in robots]) if robots else 0,
+        "x_stream": total("stream_all_bytes") / payload if payload else 0,
+        "x_vslam": total("vslam_keyframe_bytes") / payload if payload else 0,
+        "stream_est": any(r["stream_all_estimated"] for r in robots),
+    }
+
+
+def plot_bandwidth(results, link, out):
+    missions = [m for m in results["missions"] if m["link"] == link]
+    drones = sorted({m["drones"] for m in missions})
+    profiles = list(dict.fromkeys(m["profile"]["name"] for m in missions))
+    fig, axes = plt.subplots(len(drones), len(profiles), squeeze=False, sharex=True,
+                             figsize=(4.2 * len(profiles), 2.6 * len(drones)))
+    bin_s = results["bin_s"]
+    for m in missions:
+        ax = axes[drones.index(m["drones"])][profiles.index(m["profile"]["name"])]
+        for r in m["robots"]:
+            bins = r["bytes_per_bin"]
+            ax.plot([i * bin_s for i in range(len(bins))], [b / bin_s / 1e3 for b in bins],
+                    linewidth=1, label=r["robot_id"])
+        rate = m["profile"]["rate_kbit_s"]
+        if rate:
+            ax.axhline(rate / 8, color="black", linestyle="--", linewidth=1, label="link rate")
+        ax.set_title(f'{m["drones"]} drones, {m["profile"]["name"]}', fontsize=9)
+        ax.grid(alpha=0.3)
+    for row in axes:
+        row[0].set_ylabel("kB/s received")
+    for ax in axes[-1]:
+        ax.set_xlabel("s since the first keyframe")
+    axes[0][0].legend(fontsize=6, ncol=2)
+    fig.suptitle(f"Bandwidth over time per robot ({link} links; {bin_s:g} s bins)")
+    fig.tight_layout()
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+
+
+def plot_savings(results, out):
+    missions = results["missions"]
+    names = [m["name"] for m in missions]
+    figures = [fleet(m) for m in missions]
+    x = range(len(names))
+    fig, ax = plt.subplots(figsize=(max(6, 0.55 * len(names)), 4))
+    ax.bar([i - 0.2 for i in x], [f["x_stream"] for f in figures], 0.4,
+           label="vs streaming every frame (est.)")
+    ax.bar([i + 0.2 for i in x], [f["x_vslam"] for f in figures], 0.4,
+           label="vs every V-SLAM keyframe")
+    ax.set_yscale("log")
+    ax.set_ylabel("baseline bytes / delivered bytes")
+    ax.set_xticks(list(x))
+    ax.set_xticklabels(names, rotation=60, ha="right", fontsize=7)
+    ax.grid(axis="y", alpha=0.3)
+    ax.legend()
+    ax.set_title("Savings against both baselines (fleet, per mission)")
+    fig.tight_layout()
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+
+
+def plot_latency(results, out):
+    links = list(dict.fromkeys(m["link"] for m in results["missions"]))
+    fig, axes = plt.subplots(1, len(links), squeeze=False, figsize=(5.5 * len(links), 4))
+    for col, link in enumerate(links):
+        ax = axes[0][col]
+        missions = [m for m in results["missions"] if m["link"] == link]
+        profiles = list(dict.fromkeys(m["profile"]["name"] for m in missions))
+        drones = sorted({m["drones"] for m in missions})
+        for k, n in enumerate(drones):
+            xs, med, p95 = [], [], []
+            for m in missions:
+                if m["drones"] != n:
+                    continue
+                f = fleet(m)
+                if f["lat_med"] is None:
+                    continue
+                xs.append(profiles.index(m["profile"]["name"]) + (k - len(drones) / 2) * 0.12)
+                med.append(f["lat_med"] / 1e3)
+                p95.append(f["lat_p95"] / 1e3)
+            ax.scatter(xs, med, label=f"{n} drones: median", marker="o")
+            ax.scatter(xs, p95, marker="^", alpha=0.6, label=f"{n} drones: worst p95")
+        ax.set_xticks(range(len(profiles)))
+        ax.set_xticklabels(profiles)
+        ax.set_yscale("log")
+        ax.set_ylabel("capture -> stored (s)")
+        ax.set_title(f"Latency per profile ({link})")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+
+
+def fmt(value, spec, missing="-"):
+    return missing if value is None else format(value, spec)
+
+
+def write_report(results, folder, pictures):
+    machine = results["machine"]
+    lines = [f'# Bandwidth experiment `{results["experiment"]}`', "",
+             f'{machine["date"]} on {machine["hostname"]} ({machine["cpus"]} CPUs, '
+             f'{machine.get("kernel", "?")}). Figures from one run on a shared, noisy machine.', ""]
+    if results["interrupted"]:
+        lines += ["**Interrupted**: the missions below are the ones that ran.", ""]
+    for skipped in results["skipped"]:
+        lines += [f"- {skipped}"]
+    lines += ["", "| mission | ok | delivered | latency median | worst p95 | dropped | resent | "
+              "refused writes | payload MB | wire MB | kB/s per robot (median) | x stream-all | "
+              "x V-SLAM |", "|" + "---|" * 13]
+    for m in results["missions"]:
+        f = fleet(m)
+        lines.append(
+            f'| {m["name"]} | {"yes" if m["ok"] else "**NO**"} | {f["delivered"]} | '
+            f'{fmt(f["lat_med"], ".0f")} ms | {fmt(f["lat_p95"], ".0f")} ms | {f["dropped"]} | '
+            f'{f["resent"]} | {f["refused"]} | {f["payload"] / 1e6:.2f} | '
+            f'{fmt(None if f["wire"] is None else f["wire"] / 1e6, ".2f", "not measured")} | '
+            f'{f["rate"] / 1e3:.1f} | {f["x_stream"]:.1f} | {f["x_vslam"]:.1f} |')
+    lines += ["", "Latency: capture time of the keyframe's frame to its commit at the station "
+              "(one machine clock). Payload: serialized DDS samples stored (first copies). Wire: "
+              "bytes the drone's veth sent (IP + UDP + RTPS, resends and discovery included), "
+              "only on netns links. Stream-all is estimated from one frame in N (est.).", ""]
+    for title, picture in pictures:
+        lines += [f"## {title}", "", f"![{title}]({picture})", ""]
+    lines += ["## What each link applied", ""]
+    for m in results["missions"]:
+        lines.append(f'- **{m["name"]}**: ' + "; ".join(m["notes"]))
+        for failure in m["failures"]:
+            lines.append(f"  - failure: {failure.splitlines()[0]}")
+    (folder / "report.md").write_text("\n".join(lines) + "\n")
+
+
+def main():
+    if len(sys.argv) != 2:
+        sys.exit("usage: bandwidth_report.py EXPERIMENT_FOLDER")
+    folder = Path(sys.argv[1])
+    results = json.loads((folder / "results.json").read_text())
+    pictures = []
+    for link in dict.fromkeys(m["link"] for m in results["missions"]):
+        name = f"bandwidth_{link}.png"
+        plot_bandwidth(results, link, folder / name)
+        pictures.append((f"Bandwidth over time ({link})", name))
+    if results["missions"]:
+        plot_savings(results, folder / "savings.png")
+        plot_latency(results, folder / "latency.png")
+        pictures += [("Savings against both baselines", "savings.png"),
+                     ("Latency per profile", "latency.png")]
+    write_report(results, folder, pictures)
+
+
+if __name__ == "__main__":
+    main()
