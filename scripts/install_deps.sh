@@ -21,9 +21,7 @@ PACKAGES=(
   libbenchmark-dev
   procps
   iproute2
-  iproute2
   python3-torch python3-onnx python3-opencv python3-numpy
-  python3-matplotlib
   python3-matplotlib
   fonts-dejavu-core fonts-liberation2 fonts-freefont-ttf fonts-urw-base35
 )
