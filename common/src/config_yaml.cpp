@@ -383,36 +383,6 @@ void visit(V& v, StationLimits& c) {
 }
 
 template <class V>
-void visit(V& v, StationConfig& c) {
-  v.section("dds", c.dds);
-  v.section("limits", c.limits);
-  v.field("database", c.database);
-  v.field("mission_log", c.mission_log);
-  v.field("report_period_s", c.report_period_s, positive());
-  v.field("log_level", c.log_level, one_of(kLogLevels));
-}
-
-template <class V>
-void visit(V& v, MissionConfig& c) {
-  v.field("name", c.name, Check<std::string>([](const std::string& s) {
-            return std::regex_match(s, std::regex("[A-Za-z0-9_.-]{1,64}"))
-                       ? std::string()
-                       : std::string("must match [A-Za-z0-9_.-]{1,64}");
-          }));
-  v.field("drones", c.drones, between(1, 64));
-  v.field("robot_id_prefix", c.robot_id_prefix);
-  v.field("run_root", c.run_root);
-  v.field("domain_id", c.domain_id, between(0, 232));
-  v.field("agent_timeout_s", c.agent_timeout_s, positive());
-  v.field("station_drain_timeout_s", c.station_drain_timeout_s, positive());
-  v.field("scenario", c.scenario);
-  v.field("scenario_dir", c.scenario_dir);
-  v.section("agent", c.agent);
-  v.section("station", c.station);
-}
-
-template <class V>
-template <class V>
 void visit(V& v, TextReadingConfig& c) {
   v.field("enabled", c.enabled);
   v.field("engine", c.engine);
@@ -445,11 +415,41 @@ void visit(V& v, AnalysisConfig& c) {
   v.section("places", c.places);
 }
 
+template <class V>
+void visit(V& v, StationConfig& c) {
+  v.section("dds", c.dds);
+  v.section("limits", c.limits);
+  v.section("analysis", c.analysis);
+  v.field("database", c.database);
+  v.field("mission_log", c.mission_log);
+  v.field("report_period_s", c.report_period_s, positive());
+  v.field("log_level", c.log_level, one_of(kLogLevels));
+}
+
+template <class V>
+void visit(V& v, MissionConfig& c) {
+  v.field("name", c.name, Check<std::string>([](const std::string& s) {
+            return std::regex_match(s, std::regex("[A-Za-z0-9_.-]{1,64}"))
+                       ? std::string()
+                       : std::string("must match [A-Za-z0-9_.-]{1,64}");
+          }));
+  v.field("drones", c.drones, between(1, 64));
+  v.field("robot_id_prefix", c.robot_id_prefix);
+  v.field("run_root", c.run_root);
+  v.field("domain_id", c.domain_id, between(0, 232));
+  v.field("agent_timeout_s", c.agent_timeout_s, positive());
+  v.field("station_drain_timeout_s", c.station_drain_timeout_s, positive());
+  v.field("scenario", c.scenario);
+  v.field("scenario_dir", c.scenario_dir);
+  v.section("agent", c.agent);
+  v.section("station", c.station);
+}
+
+template <class V>
 void visit(V& v, StreetConfig& c) {
   v.field("length_m", c.length_m, between(20.0, 10000.0));
   v.field("width_m", c.width_m, between(4.0, 200.0));
   v.field("facade_height_m", c.facade_height_m, between(2.0, 200.0));
-  v.section("analysis", c.analysis);
   v.field("building_min_width_m", c.building_min_width_m, between(1.0, 500.0));
   v.field("building_max_width_m", c.building_max_width_m, between(1.0, 500.0));
   v.field("sign_probability", c.sign_probability, between(0.0, 1.0));
