@@ -28,19 +28,6 @@ struct OcrOptions {
   std::string image;
 };
 
-// Runs `body`, reporting a start-up error once, as main does for the other subcommands.
-template <typename Body>
-void reported(Body body) {
-  try {
-    body();
-  } catch (const CLI::Error&) {
-    throw;
-  } catch (const std::exception& e) {
-    std::cerr << "keyfleet: error: " << e.what() << "\n";
-    throw CLI::RuntimeError(1);
-  }
-}
-
 // Median ms per 640x480 keyframe: the train_sharp photos resized to that size.
 double keyframe_ms(station::TextReader& reader, const fs::path& images) {
   std::vector<double> ms;
@@ -137,13 +124,13 @@ void add_ocr_commands(CLI::App& app) {
   eval->add_option("--max-images", options->max_images,
                    "images per ICDAR set; also adds test_blurred (0 = train_sharp only)");
   add_reader_options(*eval, *options);
-  eval->callback([options] { reported([&] { run_eval(*options); }); });
+  eval->callback([options] { run_reporting([&] { run_eval(*options); }); });
 
   auto* read = ocr->add_subcommand("read", "print the words read in one image");
   read->add_option("image", options->image, "image file")->required()->check(CLI::ExistingFile);
   read->add_option("--engine", options->engines, "engine (default: the library's)")->expected(1);
   add_reader_options(*read, *options);
-  read->callback([options] { reported([&] { run_read(*options); }); });
+  read->callback([options] { run_reporting([&] { run_read(*options); }); });
 }
 
 }  // namespace keyfleet::commands
