@@ -412,9 +412,10 @@ TEST(ShippedConfigs, StationYamlLoads) {
   EXPECT_GT(c.limits.max_image_bytes, 0u);
 }
 
-// configs/ naming: scenario_*.yaml are scenario files, every other extra file a mission.
+// configs/ naming: scenario_*.yaml are scenario files, eval*.yaml evaluations,
+// experiment_bandwidth*.yaml bandwidth experiments, every other extra file a mission.
 TEST(ShippedConfigs, EveryScenarioAndMissionFileInConfigsLoads) {
-  int scenarios = 0, missions = 0;
+  int scenarios = 0, missions = 0, experiments = 0;
   for (const auto& entry : std::filesystem::directory_iterator(configs_dir())) {
     const auto name = entry.path().filename().string();
     if (entry.path().extension() != ".yaml" || name == "agent.yaml" || name == "station.yaml")
@@ -423,6 +424,12 @@ TEST(ShippedConfigs, EveryScenarioAndMissionFileInConfigsLoads) {
     if (name.rfind("scenario_", 0) == 0) {
       EXPECT_NO_THROW(load_scenario_config(entry.path().string()));
       ++scenarios;
+    } else if (name.rfind("eval", 0) == 0) {
+      EXPECT_NO_THROW(load_eval_config(entry.path().string()));
+      ++experiments;
+    } else if (name.rfind("experiment_bandwidth", 0) == 0) {
+      EXPECT_NO_THROW(load_bandwidth_experiment_config(entry.path().string()));
+      ++experiments;
     } else {
       EXPECT_NO_THROW(load_mission_config(entry.path().string()));
       ++missions;
@@ -430,6 +437,7 @@ TEST(ShippedConfigs, EveryScenarioAndMissionFileInConfigsLoads) {
   }
   EXPECT_GT(scenarios, 0);
   EXPECT_GT(missions, 0);
+  EXPECT_EQ(experiments, 2);
 }
 
 }  // namespace
