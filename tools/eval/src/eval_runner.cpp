@@ -16,6 +16,7 @@
 #include "keyfleet/common/image_codec.hpp"
 #include "keyfleet/common/model_files.hpp"
 #include "keyfleet/scenario/scenario_generator.hpp"
+#include "keyfleet/station/analysis_setup.hpp"
 #include "keyfleet/station/bow_database.hpp"
 #include "keyfleet/station/orb_extractor.hpp"
 #include "keyfleet/station/orb_vocabulary.hpp"
@@ -49,7 +50,7 @@ std::map<std::uint64_t, std::set<int>> read_frames(const std::vector<std::uint64
       std::max<std::size_t>(1, std::min<std::size_t>(std::size_t(threads), frames.size()));
   std::vector<std::unique_ptr<station::TextReader>> readers;
   for (std::size_t i = 0; i < workers; ++i)
-    readers.push_back(station::make_text_reader(station::TextReaderParams{}));
+    readers.push_back(station::make_configured_text_reader(TextReadingConfig{}));  // the station's
   reader_name = readers.front()->name();
 
   std::vector<std::set<int>> found(frames.size());
