@@ -20,6 +20,7 @@ namespace keyfleet::mission {
 namespace {
 
 constexpr char kNamespacePrefix[] = "kfbw";
+constexpr char kStationAddress[] = "10.77.255.1";
 // Queueing the shaper allows before it drops: enough for a few DDS fragments in flight.
 constexpr char kTbfLatency[] = "200ms";
 
@@ -33,6 +34,10 @@ std::string format_number(double value) {
   std::ostringstream out;
   out << value;
   return out.str();
+}
+
+std::string drone_address_of(std::size_t drone) {
+  return "10.77." + std::to_string(drone / 250) + "." + std::to_string(drone % 250 + 2);
 }
 
 bool process_alive(long pid) {
@@ -105,6 +110,14 @@ NetnsLinks::NetnsLinks(const std::vector<std::string>& robot_ids, const LinkProf
     run_or_throw({"ip", "netns", "add", station_ns_});
     created_ns_.push_back(station_ns_);
     run_or_throw({"ip", "-n", station_ns_, "link", "set", "lo", "up"});
+    // The station has one address for every drone, on a link of its own: with an address per
+    // veth it would announce them all, and each drone would send every sample to each one.
+    run_or_throw({"ip", "link", "add", "kfst", "netns", station_ns_, "type", "veth", "peer", "name",
+                  "kfstp", "netns", station_ns_});
+    run_or_throw({"ip", "-n", station_ns_, "addr", "add", std::string(kStationAddress) + "/32",
+                  "dev", "kfst"});
+    run_or_throw({"ip", "-n", station_ns_, "link", "set", "kfst", "up"});
+    run_or_throw({"ip", "-n", station_ns_, "link", "set", "kfstp", "up"});
     for (std::size_t i = 0; i < robot_ids.size(); ++i) {
       const std::string ns = prefix_ + "-d" + std::to_string(i);
       const std::string drone_if = "kfd" + std::to_string(i);
@@ -115,14 +128,17 @@ NetnsLinks::NetnsLinks(const std::vector<std::string>& robot_ids, const LinkProf
       drone_if_.push_back(drone_if);
       run_or_throw({"ip", "link", "add", drone_if, "netns", ns, "type", "veth", "peer", "name",
                     station_if, "netns", station_ns_});
-      const std::string subnet = "10.77." + std::to_string(i) + ".";
-      run_or_throw({"ip", "-n", ns, "addr", "add", subnet + "2/30", "dev", drone_if});
-      run_or_throw({"ip", "-n", station_ns_, "addr", "add", subnet + "1/30", "dev", station_if});
+      const std::string drone_address = drone_address_of(i);
+      run_or_throw({"ip", "-n", ns, "addr", "add", drone_address + "/32", "dev", drone_if});
       run_or_throw({"ip", "-n", ns, "link", "set", "lo", "up"});
       run_or_throw({"ip", "-n", ns, "link", "set", drone_if, "up"});
       run_or_throw({"ip", "-n", station_ns_, "link", "set", station_if, "up"});
-      // DDS announces by multicast too: a route keeps those sends from failing.
-      run_or_throw({"ip", "-n", ns, "route", "add", "default", "via", subnet + "1"});
+      // Point-to-point routes over the unnumbered veth; the default route also carries the
+      // DDS multicast announcements.
+      run_or_throw({"ip", "-n", ns, "route", "add", kStationAddress, "dev", drone_if});
+      run_or_throw({"ip", "-n", ns, "route", "add", "default", "via", kStationAddress, "dev",
+                    drone_if, "onlink"});
+      run_or_throw({"ip", "-n", station_ns_, "route", "add", drone_address, "dev", station_if});
       shape(ns, drone_if);
       shape(station_ns_, station_if);
     }
@@ -216,14 +232,11 @@ std::vector<std::string> NetnsLinks::command_prefix(const std::string& process) 
   return {"ip", "netns", "exec", station_ns_};
 }
 
-std::string NetnsLinks::station_address(std::size_t drone) const {
-  return "10.77." + std::to_string(drone) + ".1";
-}
+std::string NetnsLinks::station_address(std::size_t) const { return kStationAddress; }
 
 std::vector<std::string> NetnsLinks::drone_addresses() const {
   std::vector<std::string> out;
-  for (std::size_t i = 0; i < robot_ids_.size(); ++i)
-    out.push_back("10.77." + std::to_string(i) + ".2");
+  for (std::size_t i = 0; i < robot_ids_.size(); ++i) out.push_back(drone_address_of(i));
   return out;
 }
 
