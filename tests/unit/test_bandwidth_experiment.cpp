@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include "keyfleet/common/config.hpp"
+#include "keyfleet/common/config_error.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/mission/bandwidth_metrics.hpp"
 
@@ -133,6 +135,49 @@ TEST(StreamStart, ReadsTheLocalTimeOfTheStationMatchedLine) {
   EXPECT_EQ(*start, expected);
   EXPECT_FALSE(stream_start_from_log("/nonexistent.log").has_value());
   std::filesystem::remove(path);
+}
+
+TEST(ExperimentConfig, ListsOfNumbersAndOfProfilesRoundTrip) {
+  const auto config = parse_bandwidth_experiment_config(R"(
+drones: [2, 8]
+links: [flow_control]
+profiles:
+  - name: unlimited
+  - name: 500kbit
+    rate_kbit_s: 500
+    delay_ms: 40
+mission:
+  agent:
+    dds:
+      max_bytes_per_s: 1000
+)",
+                                                        "test.yaml");
+  ASSERT_EQ(config.drones, (std::vector<int>{2, 8}));
+  ASSERT_EQ(config.profiles.size(), 2u);
+  EXPECT_EQ(config.profiles[1].name, "500kbit");
+  EXPECT_DOUBLE_EQ(config.profiles[1].rate_kbit_s, 500);
+  EXPECT_DOUBLE_EQ(config.profiles[1].delay_ms, 40);
+  EXPECT_EQ(config.mission.agent.dds.max_bytes_per_s, 1000u);
+  const auto again = parse_bandwidth_experiment_config(to_yaml(config), "round trip");
+  EXPECT_EQ(again.drones, config.drones);
+  ASSERT_EQ(again.profiles.size(), 2u);
+  EXPECT_DOUBLE_EQ(again.profiles[1].rate_kbit_s, 500);
+}
+
+TEST(ExperimentConfig, BadProfileKeysAndLinkKindsNameTheKey) {
+  const auto error_of = [](const std::string& yaml) {
+    try {
+      parse_bandwidth_experiment_config(yaml, "bad.yaml");
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(error_of("profiles:\n  - name: a\n    rate: 5\n").find("profiles.rate: unknown key"),
+            std::string::npos)
+      << error_of("profiles:\n  - name: a\n    rate: 5\n");
+  EXPECT_NE(error_of("links: [radio]\n").find("links"), std::string::npos);
+  EXPECT_NE(error_of("drones: [0]\n").find("drones"), std::string::npos);
 }
 
 TEST(StationRecords, MissingDatabaseIsAStartupErrorNamingTheFile) {
