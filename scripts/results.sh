@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Regenerates the README's results blocks from fresh runs, with the machine and the date:
-#   scripts/results.sh            # builds (Release), runs `keyfleet eval configs/eval.yaml`
-# The block between <!-- results:eval:begin --> and <!-- results:eval:end --> is replaced;
-# its plots go to docs/results/. KEYFLEET_BUILD_DIR overrides build/; KEYFLEET_EVAL_SCENARIO_DIR
+#   scripts/results.sh                 # both blocks (about 5 + 8 minutes here, as root)
+#   scripts/results.sh eval            # `keyfleet eval configs/eval.yaml` only
+#   scripts/results.sh bandwidth       # `keyfleet experiment bandwidth configs/experiment_bandwidth.yaml` only
+# The blocks between <!-- results:NAME:begin --> and <!-- results:NAME:end --> are replaced;
+# their plots go to docs/results/. KEYFLEET_BUILD_DIR overrides build/; KEYFLEET_EVAL_SCENARIO_DIR
 # evaluates a scenario generated before instead of generating the default one.
 set -euo pipefail
 
@@ -48,4 +50,52 @@ PY
   echo "README results:eval block updated from $out"
 }
 
-eval_block
+bandwidth_block() {
+  local runs="$root/runs"
+  mkdir -p "$runs"
+  local start=$SECONDS
+  "$build/bin/keyfleet" experiment bandwidth "$root/configs/experiment_bandwidth.yaml" \
+    --run-root "$runs"
+  local took=$((SECONDS - start))
+  local out
+  out=$(ls -dt "$runs"/bandwidth-* | head -1)
+  mkdir -p "$root/docs/results"
+  for plot in savings latency bandwidth_netns bandwidth_flow_control; do
+    [ -f "$out/$plot.png" ] && cp "$out/$plot.png" "$root/docs/results/bandwidth_$plot.png"
+  done
+  "$python" - "$out/report.md" "$root/README.md" "$machine" "$when" "$took" "$root/docs/results" <<'PY'
+import os, sys
+report, readme, machine, when, took, plots = sys.argv[1:]
+lines = open(report).read().splitlines()
+first = next(i for i, l in enumerate(lines) if l.startswith("| mission"))
+last = first
+while last < len(lines) and lines[last].startswith("|"):
+    last += 1
+table = "\n".join(lines[first:last])
+notes = next((l for l in lines[last:] if l.startswith("Latency:")), "")
+pictures = [f"![{name}](docs/results/bandwidth_{name}.png)"
+            for name in ("bandwidth_netns", "bandwidth_flow_control", "savings", "latency")
+            if os.path.exists(os.path.join(plots, f"bandwidth_{name}.png"))]
+block = (f"*Measured {when} on {machine} (shared: figures of time are noisy), "
+         f"`scripts/results.sh bandwidth` ({took} s).*\n\n{table}\n\n{notes}\n\n"
+         + " ".join(pictures) + "\n")
+begin, end = "<!-- results:bandwidth:begin -->", "<!-- results:bandwidth:end -->"
+old = open(readme).read()
+if begin not in old or end not in old:
+    sys.exit(f"{readme}: the {begin} ... {end} markers are missing")
+head, rest = old.split(begin, 1)
+_, tail = rest.split(end, 1)
+open(readme, "w").write(head + begin + "\n" + block + end + tail)
+PY
+  echo "README results:bandwidth block updated from $out"
+}
+
+blocks=("$@")
+[ ${#blocks[@]} -eq 0 ] && blocks=(eval bandwidth)
+for block in "${blocks[@]}"; do
+  case "$block" in
+    eval) eval_block ;;
+    bandwidth) bandwidth_block ;;
+    *) echo "results.sh: unknown block '$block' (eval, bandwidth)" >&2; exit 2 ;;
+  esac
+done
