@@ -13,7 +13,7 @@ build=${KEYFLEET_BUILD_DIR:-$root/build}
 python=/usr/bin/python3
 
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
-cmake --build "$build" --target keyfleet
+cmake --build "$build" --target keyfleet robot_agent ground_station
 
 machine="$(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')"
 when=$(date -u '+%Y-%m-%d %H:%M UTC')
