@@ -18,6 +18,22 @@ cmake --build "$build" --target keyfleet robot_agent ground_station
 machine="$(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')"
 when=$(date -u '+%Y-%m-%d %H:%M UTC')
 
+# Replaces the README block between <!-- results:NAME:begin --> and ...:end --> with stdin.
+replace_block() {
+  "$python" -c '
+import sys
+readme, name = sys.argv[1:]
+block = sys.stdin.read()
+begin, end = f"<!-- results:{name}:begin -->", f"<!-- results:{name}:end -->"
+old = open(readme).read()
+if begin not in old or end not in old:
+    sys.exit(f"{readme}: the {begin} ... {end} markers are missing")
+head, rest = old.split(begin, 1)
+_, tail = rest.split(end, 1)
+open(readme, "w").write(head + begin + "\n" + block + end + tail)
+' "$root/README.md" "$1"
+}
+
 eval_block() {
   local out="$root/runs/results-eval-$(date +%Y%m%d-%H%M%S)"
   local args=("$root/configs/eval.yaml" --out "$out")
@@ -28,9 +44,9 @@ eval_block() {
   mkdir -p "$root/docs/results"
   cp "$out/fig6a_words.png" "$root/docs/results/eval_fig6a_words.png"
   cp "$out/fig6b_places.png" "$root/docs/results/eval_fig6b_places.png"
-  "$python" - "$out/report.md" "$root/README.md" "$machine" "$when" "$took" <<'PY'
+  ("$python" - "$out/report.md" "$machine" "$when" "$took" <<'PY'
 import re, sys
-report, readme, machine, when, took = sys.argv[1:]
+report, machine, when, took = sys.argv[1:]
 text = open(report).read()
 body = text[text.index("## (a)"):]
 body = re.sub(r"^## ", "#### ", body, flags=re.M)
@@ -39,14 +55,9 @@ body = body.replace("](fig6b_places.png)", "](docs/results/eval_fig6b_places.png
 intro = text[text.index("Scenario "):text.index("## (a)")].strip()
 block = (f"*Measured {when} on {machine} (shared and busy: figures of time are noisy), "
          f"`scripts/results.sh` ({took} s).* {intro}\n\n{body.strip()}\n")
-begin, end = "<!-- results:eval:begin -->", "<!-- results:eval:end -->"
-old = open(readme).read()
-if begin not in old or end not in old:
-    sys.exit(f"{readme}: the {begin} ... {end} markers are missing")
-head, rest = old.split(begin, 1)
-_, tail = rest.split(end, 1)
-open(readme, "w").write(head + begin + "\n" + block + end + tail)
+sys.stdout.write(block)
 PY
+  ) | replace_block eval
   echo "README results:eval block updated from $out"
 }
 
@@ -63,9 +74,9 @@ bandwidth_block() {
   for plot in savings latency bandwidth_netns bandwidth_flow_control; do
     [ -f "$out/$plot.png" ] && cp "$out/$plot.png" "$root/docs/results/bandwidth_$plot.png"
   done
-  "$python" - "$out/report.md" "$root/README.md" "$machine" "$when" "$took" "$root/docs/results" <<'PY'
+  ("$python" - "$out/report.md" "$machine" "$when" "$took" "$root/docs/results" <<'PY'
 import os, sys
-report, readme, machine, when, took, plots = sys.argv[1:]
+report, machine, when, took, plots = sys.argv[1:]
 lines = open(report).read().splitlines()
 first = next(i for i, l in enumerate(lines) if l.startswith("| mission"))
 last = first
@@ -79,14 +90,9 @@ pictures = [f"![{name}](docs/results/bandwidth_{name}.png)"
 block = (f"*Measured {when} on {machine} (shared: figures of time are noisy), "
          f"`scripts/results.sh bandwidth` ({took} s).*\n\n{table}\n\n{notes}\n\n"
          + " ".join(pictures) + "\n")
-begin, end = "<!-- results:bandwidth:begin -->", "<!-- results:bandwidth:end -->"
-old = open(readme).read()
-if begin not in old or end not in old:
-    sys.exit(f"{readme}: the {begin} ... {end} markers are missing")
-head, rest = old.split(begin, 1)
-_, tail = rest.split(end, 1)
-open(readme, "w").write(head + begin + "\n" + block + end + tail)
+sys.stdout.write(block)
 PY
+  ) | replace_block bandwidth
   echo "README results:bandwidth block updated from $out"
 }
 

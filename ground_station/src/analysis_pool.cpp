@@ -25,7 +25,6 @@ void AnalysisPool::submit(AnalysisJob job) {
     ++counters_.deferred;
   }
   waiting_.push_back(std::move(job));
-  counters_.waiting = waiting_.size();
   work_ready_.notify_one();
 }
 
@@ -36,7 +35,6 @@ void AnalysisPool::run(const Step& step) {
     if (stopping_) return;
     AnalysisJob job = std::move(waiting_.front());
     waiting_.pop_front();
-    counters_.waiting = waiting_.size();
     ++counters_.running;
     lock.unlock();
     AnalysisResult result;
@@ -78,7 +76,9 @@ bool AnalysisPool::wait_until_idle(std::chrono::milliseconds timeout) {
 
 AnalysisPool::Counters AnalysisPool::counters() const {
   std::lock_guard lock(mutex_);
-  return counters_;
+  Counters c = counters_;
+  c.waiting = waiting_.size();
+  return c;
 }
 
 void AnalysisPool::stop() {
@@ -87,7 +87,6 @@ void AnalysisPool::stop() {
     if (stopping_) return;
     stopping_ = true;
     waiting_.clear();
-    counters_.waiting = 0;
   }
   work_ready_.notify_all();
   for (auto& t : threads_) t.join();

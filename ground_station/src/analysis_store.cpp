@@ -185,23 +185,6 @@ std::vector<KeyframeKey> AnalysisStore::unanalysed(std::size_t limit,
   return out;
 }
 
-std::optional<AnalysisJob> AnalysisStore::load_job(const KeyframeKey& key) const {
-  auto query = db_.prepare(
-      "SELECT capture_time_ns, image, pose_tx, pose_ty, pose_tz, pose_qx, pose_qy, pose_qz, "
-      "pose_qw FROM keyframes WHERE robot_id = ? AND sequence_number = ?");
-  query.bind(1, key.robot_id).bind(2, as_int(key.sequence));
-  if (!query.step()) return std::nullopt;
-  AnalysisJob job;
-  job.key = key;
-  job.capture_time_ns = query.int64(0);
-  job.jpeg = query.blob(1);
-  if (!query.is_null(2)) {
-    job.pose = Pose{query.real(2), query.real(3), query.real(4), query.real(5),
-                    query.real(6), query.real(7), query.real(8)};
-  }
-  return job;
-}
-
 namespace {
 
 StoredWord word_from_row(const SqliteStatement& row) {

@@ -66,6 +66,13 @@ CREATE TABLE IF NOT EXISTS stage_times (
 std::int64_t as_int(std::uint64_t v) { return static_cast<std::int64_t>(v); }
 std::uint64_t as_uint(std::int64_t v) { return static_cast<std::uint64_t>(v); }
 
+// The seven pose columns (tx..qw) from `first` on; NULL when the keyframe carried no pose.
+std::optional<Pose> pose_at(const SqliteStatement& row, int first) {
+  if (row.is_null(first)) return std::nullopt;
+  return Pose{row.real(first),     row.real(first + 1), row.real(first + 2), row.real(first + 3),
+              row.real(first + 4), row.real(first + 5), row.real(first + 6)};
+}
+
 }  // namespace
 
 KeyframeStore::KeyframeStore(const std::string& path) : db_(path) {
@@ -240,17 +247,38 @@ std::vector<StoredKeyframeInfo> KeyframeStore::keyframe_index() const {
       "pose_qy, pose_qz, pose_qw FROM keyframes ORDER BY received_ns");
   std::vector<StoredKeyframeInfo> out;
   while (query.step()) {
-    StoredKeyframeInfo k;
-    k.robot_id = query.text(0);
-    k.sequence = as_uint(query.int64(1));
-    k.capture_time_ns = query.int64(2);
-    if (!query.is_null(3)) {
-      k.pose = Pose{query.real(3), query.real(4), query.real(5), query.real(6),
-                    query.real(7), query.real(8), query.real(9)};
-    }
-    out.push_back(std::move(k));
+    out.push_back(StoredKeyframeInfo{query.text(0), as_uint(query.int64(1)), query.int64(2),
+                                     pose_at(query, 3)});
   }
   return out;
+}
+
+std::optional<Keyframe> KeyframeStore::load(const std::string& robot_id,
+                                            std::uint64_t sequence) const {
+  auto query = db_.prepare(
+      "SELECT frame_index, capture_time_ns, vslam_keyframe_index, window_first_frame, "
+      "window_last_frame, quality_score, sharpness_score, semantic_score, encoding, width, "
+      "height, image, pose_tx, pose_ty, pose_tz, pose_qx, pose_qy, pose_qz, pose_qw "
+      "FROM keyframes WHERE robot_id = ? AND sequence_number = ?");
+  query.bind(1, robot_id).bind(2, as_int(sequence));
+  if (!query.step()) return std::nullopt;
+  Keyframe k;
+  k.robot_id = robot_id;
+  k.sequence_number = sequence;
+  k.frame_index = as_uint(query.int64(0));
+  k.capture_time_ns = query.int64(1);
+  k.vslam_keyframe_index = as_uint(query.int64(2));
+  k.window_first_frame = as_uint(query.int64(3));
+  k.window_last_frame = as_uint(query.int64(4));
+  k.quality_score = query.real(5);
+  k.sharpness_score = query.real(6);
+  k.semantic_score = query.real(7);
+  k.encoding = query.text(8);
+  k.width = static_cast<std::uint32_t>(query.int64(9));
+  k.height = static_cast<std::uint32_t>(query.int64(10));
+  k.image = query.blob(11);
+  k.camera_pose = pose_at(query, 12);
+  return k;
 }
 
 }  // namespace keyfleet::station

@@ -57,11 +57,7 @@ void StationAnalysis::restore(PlaceRecognizer* places) {
 
 void StationAnalysis::on_stored(const Keyframe& k) {
   map_.add_keyframe(node_of(k.robot_id, k.sequence_number, k.capture_time_ns, k.camera_pose));
-  AnalysisJob job;
-  job.key = {k.robot_id, k.sequence_number};
-  job.capture_time_ns = k.capture_time_ns;
-  job.pose = k.camera_pose;
-  job.jpeg = k.image;
+  AnalysisJob job = job_for(k);
   in_flight_.insert(job.key);
   pool_.submit(std::move(job));
 }
@@ -109,9 +105,9 @@ void StationAnalysis::backfill() {
     return;
   }
   for (const KeyframeKey& key : keys) {
-    if (auto job = store_.load_job(key)) {
+    if (auto keyframe = keyframes_.load(key.robot_id, key.sequence)) {
       in_flight_.insert(key);
-      pool_.submit(std::move(*job));
+      pool_.submit(job_for(*keyframe));
     }
   }
 }
@@ -141,7 +137,6 @@ StationAnalysis::Summary StationAnalysis::summary() const {
   s.analysed = store_.count_with_status(AnalysisStatus::kDone);
   s.deferred = store_.count_with_status(AnalysisStatus::kDeferred);
   s.failed = store_.count_with_status(AnalysisStatus::kFailed);
-  s.words = store_.words().size();
   s.place_matches = map_.place_matches().size();
   s.cross_robot_matches = map_.cross_robot_match_count();
   return s;

@@ -168,11 +168,11 @@ TEST_F(AnalysisStoreTest, UnanalysedListsNeverAnalysedAndDeferredKeyframesOldest
   ASSERT_EQ(without_in_flight.size(), 2u);
   EXPECT_EQ(without_in_flight[0].sequence, 2u);
 
-  const auto job = store_.load_job({"drone_0", 3});
-  ASSERT_TRUE(job.has_value());
-  EXPECT_FALSE(job->jpeg.empty());
-  EXPECT_TRUE(codec_.decode(job->jpeg).ok());
-  EXPECT_FALSE(store_.load_job({"drone_9", 0}).has_value());
+  const auto stored = keyframes_.load("drone_0", 3);
+  ASSERT_TRUE(stored.has_value());
+  EXPECT_FALSE(stored->image.empty());
+  EXPECT_TRUE(codec_.decode(stored->image).ok());
+  EXPECT_FALSE(keyframes_.load("drone_9", 0).has_value());
 }
 
 TEST_F(AnalysisStoreTest, FeaturesAndPlaceMatchesRoundTrip) {

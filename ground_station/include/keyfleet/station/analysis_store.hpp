@@ -39,7 +39,6 @@ class AnalysisStore {
   // received first, skipping those in `exclude` (in flight).
   std::vector<KeyframeKey> unanalysed(std::size_t limit,
                                       const std::vector<KeyframeKey>& exclude = {}) const;
-  std::optional<AnalysisJob> load_job(const KeyframeKey& key) const;
 
   // Full-text search (FTS5 syntax: HOTEL, hot*, "main street"), best first.
   std::vector<StoredWord> search_words(const std::string& query, std::size_t limit = 100) const;

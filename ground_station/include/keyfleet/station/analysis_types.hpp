@@ -33,6 +33,8 @@ struct AnalysisJob {
   std::vector<std::uint8_t> jpeg;
 };
 
+AnalysisJob job_for(const Keyframe& keyframe);
+
 // A verified place match: this keyframe shows the place `other` shows.
 struct PlaceMatch {
   KeyframeKey other;

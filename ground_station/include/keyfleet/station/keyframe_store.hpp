@@ -45,6 +45,7 @@ class KeyframeStore {
   std::vector<RobotTotals> totals() const;
   std::uint64_t keyframe_count() const;
   std::vector<StoredKeyframeInfo> keyframe_index() const;  // oldest received first
+  std::optional<Keyframe> load(const std::string& robot_id, std::uint64_t sequence) const;
   const std::string& path() const { return db_.path(); }
 
  private:

@@ -36,8 +36,7 @@ class StationAnalysis {
   bool drain(std::chrono::milliseconds timeout);
 
   struct Summary {
-    std::size_t analysed = 0, deferred = 0, failed = 0, words = 0, place_matches = 0,
-                cross_robot_matches = 0;
+    std::size_t analysed = 0, deferred = 0, failed = 0, place_matches = 0, cross_robot_matches = 0;
   };
   Summary summary() const;
 
