@@ -2,12 +2,14 @@
 # The MiniNet recipe, end to end, on this CPU: Debian packages, training data from the
 # scenario generator, training, ONNX export with OpenCV checks, evaluation table.
 #   ./scripts/train_mininet.sh [WORK_DIR]        (default: build/mininet)
-# Environment: STEPS (6000), PAIRS (3000 generated image + mask pairs), KEYFLEET_DATA.
-# Works without ../shared/data (facades are then procedural only; ICDAR rows are skipped).
+# Environment: STEPS (10000), PAIRS (3000 generated image + mask pairs), KEYFLEET_DATA.
+# With ../shared/data, street photos become facades and ICDAR 2015 test_blurred photos (after the
+# evaluation's first 100) join the training; without it, generated views only (ICDAR rows of the
+# evaluation are then skipped).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 work=${1:-$root/build/mininet}
-steps=${STEPS:-6000}
+steps=${STEPS:-10000}
 pairs=${PAIRS:-3000}
 data_root=${KEYFLEET_DATA:-$root/../shared/data}
 
@@ -34,14 +36,21 @@ if [ ! -f "$work/pairs/done" ]; then
 fi
 if [ ! -f "$work/heldout/done" ]; then  # other streets (another seed) for the evaluation
   rm -rf "$work/heldout"
-  sed 's/^seed: .*/seed: 977/' "$root/configs/scenario_training.yaml" > "$work/heldout.yaml"
-  "$keyfleet" scenario training "$work/heldout.yaml" --out "$work/heldout" --count 200
+  "$keyfleet" scenario training "$root/configs/scenario_training.yaml" --seed 977 \
+    --out "$work/heldout" --count 200
   touch "$work/heldout/done"
 fi
 # Debian's python3 (torch lives there), not a pyenv one.
-/usr/bin/python3 "$root/models/mininet/train.py" --data "$work/pairs" --work "$work/train" --steps "$steps"
+real_photos=()
+trained_on="$pairs pairs of configs/scenario_training.yaml"
+if [ -d "$data_root/icdar2015/test_blurred" ]; then
+  real_photos=(--icdar "$data_root")
+  trained_on="$trained_on + ICDAR 2015 test_blurred img_201..500"
+fi
+/usr/bin/python3 "$root/models/mininet/train.py" --data "$work/pairs" --work "$work/train" \
+  --steps "$steps" "${real_photos[@]}"
 /usr/bin/python3 "$root/models/mininet/export.py" --checkpoint "$work/train/latest.pt" \
   --out "$root/models/mininet/mininet_text.onnx" --fp16 \
-  --training-data "$pairs pairs of configs/scenario_training.yaml, $steps steps"
+  --training-data "$trained_on, $steps steps"
 "$keyfleet" segmenter eval --model "$root/models/mininet/mininet_text.onnx" \
   --generated "$work/heldout" --data "$data_root"

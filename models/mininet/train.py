@@ -1,8 +1,10 @@
 """Trains MiniNet for text segmentation on the CPU, the paper's recipe scaled to 2 cores.
 
-  /usr/bin/python3 models/mininet/train.py --data DIR --work DIR [--steps 4000]
+  /usr/bin/python3 models/mininet/train.py --data DIR --work DIR [--steps 4000] [--icdar DATA]
 
-DIR holds images/NNNNNN.jpg + masks/NNNNNN.png (255 = text) from `keyfleet scenario training`.
+DIR holds images/NNNNNN.jpg + masks/NNNNNN.png (255 = inside a word box) from `keyfleet scenario
+training`; with --icdar, a quarter of each batch comes from the real ICDAR 2015 test_blurred
+photos that the evaluation does not use (their word quads as masks).
 Adam (lr 1e-3) with polynomial decay (power 0.9); cross-entropy with median-frequency class
 weights raised to a power, w_c = (f_median / f_c) ** power; augmentation: horizontal flips,
 shifts and scales up to 10 %, contrast 0.9..1.2, random greyscale. Batch 8 at 256x128 (the
@@ -41,6 +43,33 @@ def load_pairs(data_dir, scale=1.0):
         image = cv2.resize(image, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
         mask = cv2.resize(mask, (image.shape[1], image.shape[0]), interpolation=cv2.INTER_NEAREST)
         pairs.append((image, (mask > 127).astype(np.uint8)))
+    return pairs
+
+
+BLURRED_HELD_OUT = 100  # test_blurred's first 100 photos (img_101..200) are the evaluation's
+
+
+def load_icdar_blurred(data_root, scale=0.5):
+    """ICDAR 2015 test_blurred photos after the evaluation's first 100, word quads (### too:
+    illegible text is still text) filled as masks, scaled to the agent's frame size."""
+    folder = os.path.join(data_root, "icdar2015", "test_blurred")
+    images = sorted(glob.glob(os.path.join(folder, "images", "*.jpg")))[BLURRED_HELD_OUT:]
+    pairs = []
+    for path in images:
+        image = cv2.imread(path, cv2.IMREAD_COLOR)
+        if image is None:
+            raise SystemExit(f"train.py: unreadable photo {path}")
+        mask = np.zeros(image.shape[:2], np.uint8)
+        name = os.path.splitext(os.path.basename(path))[0]
+        with open(os.path.join(folder, "gt", f"gt_{name}.txt"), encoding="utf-8-sig") as gt:
+            for line in gt:
+                fields = line.strip().split(",")
+                if len(fields) >= 8:
+                    quad = np.array(fields[:8], dtype=np.int32).reshape(4, 2)
+                    cv2.fillPoly(mask, [quad], 1)
+        image = cv2.resize(image, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+        mask = cv2.resize(mask, (image.shape[1], image.shape[0]), interpolation=cv2.INTER_NEAREST)
+        pairs.append((image, mask))
     return pairs
 
 
@@ -87,6 +116,12 @@ def whole_view(image, mask, width=512, height=384):
     return (img.astype(np.float32).transpose(2, 0, 1) / 255.0 - 0.5), msk
 
 
+def pick(generated, real, real_fraction, rng):
+    if real and rng.random() < real_fraction:
+        return real[rng.randrange(len(real))]
+    return generated[rng.randrange(len(generated))]
+
+
 def class_weights(pairs, power):
     text = sum(int(m.sum()) for _, m in pairs)
     total = sum(m.size for _, m in pairs)
@@ -125,6 +160,10 @@ def main():
     ap.add_argument("--checkpoint-every", type=int, default=250)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--icdar", default="",
+                    help="the shared data folder: ICDAR test_blurred photos join the training")
+    ap.add_argument("--real-fraction", type=float, default=0.25,
+                    help="share of each batch drawn from the real photos")
     args = ap.parse_args()
 
     torch.set_num_threads(args.threads)
@@ -135,9 +174,16 @@ def main():
     pairs = load_pairs(args.data)
     held = max(1, int(len(pairs) * args.validation))
     train, val = pairs[:-held], pairs[-held:]  # the last views: other streets than most
-    weights, freq = class_weights(train, args.weight_power)
+    real = []
+    if args.icdar:
+        if os.path.isdir(os.path.join(args.icdar, "icdar2015", "test_blurred")):
+            real = load_icdar_blurred(args.icdar)
+        else:
+            print(f"no ICDAR photos under {args.icdar}: generated views only", flush=True)
+    weights, freq = class_weights(train + real, args.weight_power)
     val_images, val_masks = zip(*[whole_view(i, m) for i, m in val])
-    print(f"{len(train)} training / {len(val)} validation pairs; text fraction {freq[1]:.4f}; "
+    print(f"{len(train)} generated + {len(real)} real training / {len(val)} validation pairs; "
+          f"text fraction {freq[1]:.4f}; "
           f"class weights {weights.numpy().round(3).tolist()}", flush=True)
 
     net = MiniNet(2)
@@ -162,7 +208,7 @@ def main():
     started = time.time()
     net.train()
     while step < args.steps:
-        batch = [augment(*train[rng.randrange(len(train))], rng) for _ in range(args.batch)]
+        batch = [augment(*pick(train, real, args.real_fraction, rng), rng) for _ in range(args.batch)]
         x = torch.from_numpy(np.stack([b[0] for b in batch]))
         y = torch.from_numpy(np.stack([b[1] for b in batch])).long()
         loss = F.cross_entropy(net(x), y, weight=weights)

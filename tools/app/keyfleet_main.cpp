@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <functional>
 #include <iostream>
+#include <optional>
 
 #include "commands.hpp"
 
@@ -63,8 +64,9 @@ int run_scenario_generate(const std::string& config_path, const std::string& out
 }
 
 int run_scenario_training(const std::string& config_path, const std::string& out,
-                          std::uint64_t count) {
-  const ScenarioConfig config = load_scenario_config(config_path);
+                          std::uint64_t count, std::optional<std::uint64_t> seed) {
+  ScenarioConfig config = load_scenario_config(config_path);
+  if (seed) config.seed = *seed;
   Logger logger = make_logger("training", "info");
   print_summary(scenario::generate_training_set(config, out, count, logger), out);
   return 0;
@@ -208,6 +210,8 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   training->add_option("--out", out, "output folder")->required();
   training->add_option("--count", count, "number of pairs")->check(CLI::Range(1, 10000000));
+  std::optional<std::uint64_t> training_seed;
+  training->add_option("--seed", training_seed, "other streets than the config's seed gives");
 
   auto* montage = scenario->add_subcommand("montage", "a picture of frames from a scenario");
   std::string scenario_dir;
@@ -261,7 +265,7 @@ int main(int argc, char** argv) {
   try {
     if (*mission) return run_mission(config_path, drones, run_root);
     if (*generate) return run_scenario_generate(scenario_config, out, threads);
-    if (*training) return run_scenario_training(scenario_config, out, count);
+    if (*training) return run_scenario_training(scenario_config, out, count, training_seed);
     if (*montage) return run_scenario_montage(scenario_dir, out, montage_options);
     if (*segmenter_eval) return run_segmenter_eval(seg);
     if (*evaluate)
