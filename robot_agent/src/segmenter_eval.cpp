@@ -92,17 +92,31 @@ SegmentationScores evaluate_on_icdar(TextSegmenter& segmenter, const std::string
 }
 
 double median_forward_ms(TextSegmenter& segmenter, int repetitions) {
-  const cv::Mat frame(segmenter.info().input_size, CV_8UC3, cv::Scalar(90, 120, 150));
-  segmenter.segment({frame});  // warm-up
-  std::vector<double> ms;
-  for (int i = 0; i < repetitions; ++i) {
-    const auto start = std::chrono::steady_clock::now();
-    segmenter.segment({frame});
-    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-                     .count());
+  return median_forward_ms(std::vector<TextSegmenter*>{&segmenter}, repetitions).at(0);
+}
+
+std::vector<double> median_forward_ms(const std::vector<TextSegmenter*>& segmenters,
+                                      int repetitions) {
+  std::vector<cv::Mat> frames;
+  for (TextSegmenter* s : segmenters) {
+    frames.emplace_back(s->info().input_size, CV_8UC3, cv::Scalar(90, 120, 150));
+    s->segment({frames.back()});  // warm-up
   }
-  std::nth_element(ms.begin(), ms.begin() + long(ms.size() / 2), ms.end());
-  return ms[ms.size() / 2];
+  std::vector<std::vector<double>> ms(segmenters.size());
+  for (int i = 0; i < repetitions; ++i)
+    for (std::size_t k = 0; k < segmenters.size(); ++k) {
+      const auto start = std::chrono::steady_clock::now();
+      segmenters[k]->segment({frames[k]});
+      ms[k].push_back(
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+              .count());
+    }
+  std::vector<double> medians;
+  for (auto& m : ms) {
+    std::nth_element(m.begin(), m.begin() + long(m.size() / 2), m.end());
+    medians.push_back(m.empty() ? 0.0 : m[m.size() / 2]);
+  }
+  return medians;
 }
 
 }  // namespace keyfleet::agent

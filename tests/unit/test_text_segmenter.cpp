@@ -1,16 +1,18 @@
 // The semantic seam: the ONNX text segmenter loads its fixture, gives one mask per frame,
 // refuses broken or unusable models with a StartupError naming the file; the text score
-// prefers text away from the frame border.
+// prefers text away from the frame border; the vectorised SELU computes SELU.
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
 #include <vector>
 
+#include "keyfleet/agent/dnn_selu.hpp"
 #include "keyfleet/agent/text_segmenter.hpp"
 #include "keyfleet/common/error.hpp"
 #include "test_support.hpp"
@@ -52,6 +54,30 @@ cv::Mat make_text_image(int width, int height) {
   cv::putText(image, "open 9-18", {width / 12, 4 * height / 5}, cv::FONT_HERSHEY_PLAIN,
               width / 250.0, cv::Scalar(20, 20, 160), 2, cv::LINE_AA);
   return image;
+}
+
+// --- vectorised SELU --------------------------------------------------------------------------
+
+TEST(VectorisedSelu, MatchesTheFormulaInDoublePrecisionWithinFloatRounding) {
+  const float alpha = 1.6732632423543772f, gamma = 1.0507009873554805f;
+  std::vector<float> x;
+  for (float v = -90.f; v <= 90.f; v += 0.0137f) x.push_back(v);
+  x.insert(x.end(), {0.f, -0.f, 1e-30f, -1e-30f, -1e-7f});
+  x.resize(x.size() | 1);  // an odd length: a tail shorter than a SIMD register
+  std::vector<float> y(x.size());
+  selu_vectorised(x.data(), y.data(), int(x.size()), alpha, gamma);
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double v = x[i];
+    const double expected = gamma * (v > 0 ? v : alpha * std::expm1(v));
+    ASSERT_NEAR(y[i], expected, 1e-6 + 2e-7 * std::abs(expected)) << "x = " << v;
+  }
+}
+
+TEST(VectorisedSelu, RunsInPlace) {
+  std::vector<float> x = {-3.f, -0.5f, 0.f, 0.25f, 7.f}, y(x.size());
+  selu_vectorised(x.data(), y.data(), int(x.size()), 1.5f, 1.1f);
+  selu_vectorised(x.data(), x.data(), int(x.size()), 1.5f, 1.1f);
+  EXPECT_EQ(x, y);
 }
 
 // --- DnnTextSegmenter --------------------------------------------------------------------------

@@ -5,7 +5,9 @@
 #include <filesystem>
 #include <functional>
 #include <iostream>
+#include <memory>
 #include <optional>
+#include <vector>
 
 #include "commands.hpp"
 
@@ -110,7 +112,8 @@ int run_selection_eval(const std::string& scenario_dir, const std::vector<std::s
 
 struct SegmenterEvalOptions {
   std::string model;
-  std::string generated;  // held-out image + mask pairs
+  std::vector<std::string> compare;  // other exports of a model, timed and scored beside it
+  std::string generated;             // held-out image + mask pairs
   std::string data = "../shared/data";
   std::size_t max_images = 0;
   int repetitions = 15;
@@ -121,14 +124,40 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
   const std::string model = agent::locate_model(o.model);
   const auto info = agent::read_segmenter_info(model);
   std::printf("model %s: %s\n", model.c_str(), info.description.c_str());
+  // Each model with OpenCV's SELU and with the vectorised one (the default).
+  struct Variant {
+    std::string model, label;
+    agent::DnnSelu selu;
+  };
+  std::vector<Variant> variants;
+  for (std::size_t i = 0; i <= o.compare.size(); ++i) {
+    const std::string path = i ? agent::locate_model(o.compare[i - 1]) : model;
+    if (i) std::printf("compare %zu: %s\n", i, path.c_str());
+    const std::string name = i ? "compare " + std::to_string(i) : "model";
+    variants.push_back({path, name + ", OpenCV SELU", agent::DnnSelu::kOpenCv});
+    variants.push_back({path, name + ", vectorised SELU", agent::DnnSelu::kVectorised});
+  }
   const std::vector<cv::Size> sizes = {{512, 256}, {256, 128}, info.input_size};
-  std::printf("\n%-10s %8s %8s\n", "input", "threads", "ms");
-  for (const auto& size : sizes)
-    for (int threads : {1, 2}) {
-      agent::DnnTextSegmenter net(model, threads, size);
-      std::printf("%4dx%-5d %8d %8.1f\n", size.width, size.height, threads,
-                  agent::median_forward_ms(net, o.repetitions));
+  std::printf("\nms per forward pass (median of %d, the variants taking turns)\n", o.repetitions);
+  std::printf("%-10s %-30s %9s %6s %9s %6s\n", "input", "variant", "1 thread", "ratio", "2 threads",
+              "ratio");
+  for (const auto& size : sizes) {
+    std::vector<std::unique_ptr<agent::DnnTextSegmenter>> nets;
+    std::vector<agent::TextSegmenter*> segmenters;
+    for (const auto& v : variants) {
+      nets.push_back(std::make_unique<agent::DnnTextSegmenter>(v.model, 0, size, v.selu));
+      segmenters.push_back(nets.back().get());
     }
+    std::vector<std::vector<double>> ms;  // per thread count, per variant
+    for (int threads : {1, 2}) {
+      cv::setNumThreads(threads);
+      ms.push_back(agent::median_forward_ms(segmenters, o.repetitions));
+    }
+    for (std::size_t k = 0; k < variants.size(); ++k)
+      std::printf("%4dx%-5d %-30s %9.1f %6.2f %9.1f %6.2f\n", size.width, size.height,
+                  variants[k].label.c_str(), ms[0][k], ms[0][k] / ms[0][0], ms[1][k],
+                  ms[1][k] / ms[1][0]);
+  }
   cv::setNumThreads(2);
   struct Set {
     std::string name;
@@ -154,7 +183,18 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
                                          (icdar / "test_blurred/gt").string(), o.max_images);
        },
        fs::is_directory(icdar / "test_blurred")}};
-  std::printf("\n%-24s %-9s %7s %7s %7s %7s\n", "set", "input", "images", "R %", "P %", "IoU %");
+  if (sets[0].present) {
+    std::printf("\n%-24s %-30s %7s %7s %7s %7s\n", "set (512x256)", "variant", "images", "R %",
+                "P %", "IoU %");
+    for (const auto& v : variants) {
+      agent::DnnTextSegmenter net(v.model, 2, cv::Size(512, 256), v.selu);
+      const auto s = sets[0].run(net);
+      std::printf("%-24s %-30s %7zu %7.2f %7.2f %7.2f\n", sets[0].name.c_str(), v.label.c_str(),
+                  s.images, 100 * s.recall, 100 * s.precision, 100 * s.iou);
+    }
+  }
+  std::printf("\n%-24s %-9s %7s %7s %7s %7s\n", "set (model)", "input", "images", "R %", "P %",
+              "IoU %");
   for (const auto& set : sets) {
     if (!set.present) {
       std::printf("%-24s (not found: skipped)\n", set.name.c_str());
@@ -249,6 +289,8 @@ int main(int argc, char** argv) {
   SegmenterEvalOptions seg;
   seg.model = "mininet_text.onnx";
   segmenter_eval->add_option("--model", seg.model, "ONNX model with its .json");
+  segmenter_eval->add_option("--compare", seg.compare,
+                             "other exports (with their .json) timed and scored beside it");
   segmenter_eval->add_option("--generated", seg.generated,
                              "held-out pairs from keyfleet scenario training");
   segmenter_eval->add_option("--data", seg.data, "the shared data folder (ICDAR photos)");

@@ -1,6 +1,7 @@
 #pragma once
 // Text-segmentation accuracy and speed, like the first seed's Table III.
 #include <string>
+#include <vector>
 
 #include "keyfleet/agent/text_segmenter.hpp"
 
@@ -22,5 +23,10 @@ SegmentationScores evaluate_on_icdar(TextSegmenter& segmenter, const std::string
 
 // Median milliseconds of one forward pass on a frame at the segmenter's input size.
 double median_forward_ms(TextSegmenter& segmenter, int repetitions);
+
+// The same for several segmenters taking turns, so that the noise of a shared machine hits them
+// alike and their ratios hold.
+std::vector<double> median_forward_ms(const std::vector<TextSegmenter*>& segmenters,
+                                      int repetitions);
 
 }  // namespace keyfleet::agent

@@ -35,6 +35,11 @@ SegmenterInfo read_segmenter_info(const std::string& model_path);
 // installed executables in <bin>/../share/keyfleet/models/. Throws StartupError if neither.
 std::string locate_model(const std::string& configured);
 
+// How OpenCV DNN computes the network's SELUs: its own layer (std::exp per element) or the
+// vectorised one of dnn_selu.hpp, the same function to float rounding; MiniNet's forward pass
+// takes about 0.75 times as long with it on one thread (`keyfleet segmenter eval` compares them).
+enum class DnnSelu { kOpenCv, kVectorised };
+
 class DnnTextSegmenter final : public TextSegmenter {
  public:
   // Loads and checks the model with one forward pass at its input size: a missing or corrupt
@@ -42,7 +47,8 @@ class DnnTextSegmenter final : public TextSegmenter {
   // StartupError naming the file.
   // `input_size` overrides the description's (for evaluations at other resolutions).
   DnnTextSegmenter(const std::string& model_path, int threads,
-                   std::optional<cv::Size> input_size = std::nullopt);
+                   std::optional<cv::Size> input_size = std::nullopt,
+                   DnnSelu selu = DnnSelu::kVectorised);
   std::vector<cv::Mat> segment(const std::vector<cv::Mat>& bgr_frames) override;
   const SegmenterInfo& info() const override { return info_; }
 
