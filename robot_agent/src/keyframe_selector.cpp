@@ -27,28 +27,23 @@ HierarchicalSelector::Scored HierarchicalSelector::score(const Frame& frame) {
   Scored s{frame, 0, 0, 0};
   if (config_.strategy == SelectorConfig::Strategy::kVslam) return s;
   // One area-resize of the frame serves both sizes: the sharpness width, then 112 x 112.
-  cv::Mat work, small, grey, work_grey;
   {
     auto scope = clock_->measure("resize");
-    const double f = std::min(1.0, double(config_.quality.sharpness_width) / frame.image.cols);
-    work = f < 1 ? cv::Mat() : frame.image;
-    if (f < 1) cv::resize(frame.image, work, {}, f, f, cv::INTER_AREA);
-    cv::resize(work, small, {config_.quality.size, config_.quality.size}, 0, 0, cv::INTER_AREA);
-    cv::cvtColor(small, grey, cv::COLOR_BGR2GRAY);
-    cv::cvtColor(work, work_grey, cv::COLOR_BGR2GRAY);
+    images_.prepare(frame.image, config_.quality.size, config_.quality.sharpness_width);
   }
   {
     auto scope = clock_->measure("blur");
-    s.blur = energy_of_laplacian(grey);
+    s.blur = energy_of_laplacian(images_.grey);
   }
   {
     auto scope = clock_->measure("brightness");
-    s.brightness = brightness_score(small);
+    s.brightness = brightness_score(images_.small, images_.lab);
   }
   {
     auto scope = clock_->measure("sharpness");
-    s.sharpness =
-        kumar_sharpness(work_grey, {config_.quality.edge_contrast, config_.quality.sharp_ratio});
+    s.sharpness = kumar_sharpness(images_.work_grey,
+                                  {config_.quality.edge_contrast, config_.quality.sharp_ratio},
+                                  images_.sharpness);
   }
   return s;
 }

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "keyfleet/agent/image_quality.hpp"
@@ -98,6 +99,83 @@ std::string join(const std::vector<double>& values) {
   std::ostringstream out;
   for (std::size_t i = 0; i < values.size(); ++i) out << (i ? ", " : "") << values[i];
   return out.str();
+}
+
+// The straightforward formulations with OpenCV operations on float images (what the agent
+// ran before the fused implementation): the fast ones must give the same numbers.
+namespace reference {
+
+double energy_of_laplacian(const cv::Mat& grey) {
+  static const cv::Mat kernel = (cv::Mat_<float>(3, 3) << 1, 4, 1, 4, -20, 4, 1, 4, 1) / 6.0f;
+  cv::Mat response;
+  cv::filter2D(grey, response, CV_32F, kernel, {-1, -1}, 0, cv::BORDER_REPLICATE);
+  return response.dot(response);
+}
+
+double brightness_score(const cv::Mat& bgr) {
+  cv::Mat lab, lightness;
+  cv::cvtColor(bgr, lab, cv::COLOR_BGR2Lab);
+  cv::extractChannel(lab, lightness, 0);
+  lightness.convertTo(lightness, CV_64F, 100.0 / 255.0, -50.0);
+  return 1.0 / (1.0 + lightness.dot(lightness));
+}
+
+double sharp_fraction(const cv::Mat& image, bool along_x, const SharpnessParams& params) {
+  static const cv::Mat first_difference = (cv::Mat_<float>(1, 3) << -1, 0, 1);
+  static const cv::Mat second_difference = (cv::Mat_<float>(1, 5) << 1, 0, -2, 0, 1);
+  cv::Mat first, second;
+  cv::filter2D(image, first, CV_32F, along_x ? first_difference : first_difference.t(), {-1, -1}, 0,
+               cv::BORDER_REPLICATE);
+  cv::filter2D(image, second, CV_32F, along_x ? second_difference : second_difference.t(), {-1, -1},
+               0, cv::BORDER_REPLICATE);
+  first = cv::abs(first);
+  second = cv::abs(second);
+  cv::boxFilter(first, first, -1, {3, 3}, {-1, -1}, false);
+  cv::boxFilter(second, second, -1, {3, 3}, {-1, -1}, false);
+  const cv::Mat edges = first > params.edge_contrast;
+  const int edge_count = cv::countNonZero(edges);
+  if (edge_count == 0) return 0;
+  const int sharp = cv::countNonZero(edges & (second > first * params.sharp_ratio));
+  return double(sharp) / edge_count * std::min(1.0, edge_count / (0.02 * double(image.total())));
+}
+
+double kumar_sharpness(const cv::Mat& grey, const SharpnessParams& params) {
+  cv::Mat smooth;
+  cv::medianBlur(grey, smooth, 3);
+  return std::min(sharp_fraction(smooth, true, params), sharp_fraction(smooth, false, params));
+}
+
+}  // namespace reference
+
+// The agent's parameters (QualityConfig) and the defaults of SharpnessParams.
+std::vector<SharpnessParams> sharpness_params() {
+  const QualityConfig quality;
+  return {SharpnessParams{}, SharpnessParams{quality.edge_contrast, quality.sharp_ratio},
+          SharpnessParams{50, 1.7}, SharpnessParams{0, 0}, SharpnessParams{100.5, 0.3}};
+}
+
+void expect_same_as_reference(const cv::Mat& grey, const std::string& what) {
+  SharpnessScratch scratch;  // reused across parameters and calls, as the selector does
+  for (const auto& params : sharpness_params()) {
+    const double expected = reference::kumar_sharpness(grey, params);
+    EXPECT_EQ(kumar_sharpness(grey, params, scratch), expected)
+        << what << " (" << grey.cols << "x" << grey.rows << ", edge contrast "
+        << params.edge_contrast << ", ratio " << params.sharp_ratio << ")";
+    EXPECT_EQ(kumar_sharpness(grey, params), expected) << what << " (fresh scratch)";
+  }
+  EXPECT_NEAR(energy_of_laplacian(grey), reference::energy_of_laplacian(grey),
+              1e-5 * reference::energy_of_laplacian(grey) + 1e-3)
+      << what;
+}
+
+// Largest difference between two 8-bit images of the same size, and the fraction that differ.
+std::pair<int, double> difference(const cv::Mat& a, const cv::Mat& b) {
+  cv::Mat diff;
+  cv::absdiff(a, b, diff);
+  double largest = 0;
+  cv::minMaxLoc(diff.reshape(1), nullptr, &largest);
+  return {int(largest),
+          double(cv::countNonZero(diff.reshape(1))) / double(diff.total() * diff.channels())};
 }
 
 constexpr double kBlurLengths[] = {0, 2, 4, 8, 16};
@@ -250,6 +328,95 @@ TEST(KumarSharpness, DefaultGateSeparatesSharpPhotosFromEightPixelMotionBlur) {
           << " px width scores " << blurred << " (sharp: " << sharp << ")";
     }
   }
+}
+
+// The fused implementation counts exactly what the float formulation counts (median,
+// differences with replicated border, 3x3 sums with reflected border, both thresholds),
+// for several parameters, on sharp and blurred photos and on images a few pixels wide.
+TEST(KumarSharpness, EqualsTheOpenCvFormulationOnRealPhotos) {
+  KEYFLEET_REQUIRE_DATA(kSharpPhotos);
+  for (const auto& file : jpg_files(data_path)) {
+    const cv::Mat bgr = cv::imread(file.string(), cv::IMREAD_COLOR);
+    ASSERT_FALSE(bgr.empty()) << file;
+    const cv::Mat grey = grey_at_width(bgr, 320);
+    expect_same_as_reference(grey, file.filename().string());
+    expect_same_as_reference(motion_blurred(grey, 8, 30), file.filename().string() + " 8 px");
+    expect_same_as_reference(grey_at_width(bgr, 97), file.filename().string() + " at 97 px");
+  }
+}
+
+TEST(KumarSharpness, EqualsTheOpenCvFormulationOnSmallAndSyntheticImages) {
+  expect_same_as_reference(grey_of(make_scene(320, 240)), "synthetic scene");
+  expect_same_as_reference(grey_of(make_scene(173, 61)), "synthetic scene, odd size");
+  cv::RNG rng(7);
+  for (const cv::Size size : {cv::Size(1, 1), cv::Size(2, 2), cv::Size(3, 3), cv::Size(1, 9),
+                              cv::Size(9, 1), cv::Size(5, 7), cv::Size(17, 4), cv::Size(64, 48)}) {
+    cv::Mat noise(size, CV_8UC1);
+    rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+    expect_same_as_reference(noise, "noise");
+    expect_same_as_reference(cv::Mat(size, CV_8UC1, cv::Scalar(90)), "flat");
+  }
+}
+
+TEST(BrightnessScore, EqualsTheOpenCvFormulation) {
+  for (const cv::Mat& bgr :
+       {make_scene(320, 240), make_scene(112, 112), test::make_smooth_image(160, 120),
+        cv::Mat(32, 32, CV_8UC3, cv::Scalar::all(255))}) {
+    const double expected = reference::brightness_score(bgr);
+    EXPECT_NEAR(brightness_score(bgr), expected, 1e-9 * expected);
+  }
+}
+
+// The area resize the selector uses agrees with OpenCV's INTER_AREA to within one grey level
+// (a float sum rounded differently), on 3- and 1-channel images, integer and other factors.
+TEST(AreaResizer, AgreesWithOpenCvInterArea) {
+  const cv::Mat scene = make_scene(640, 480);
+  AreaResizer resizer;  // reused: tables rebuilt when the sizes change
+  for (const auto& [from, to] :
+       std::vector<std::pair<cv::Size, cv::Size>>{{{640, 480}, {320, 240}},
+                                                  {{320, 240}, {112, 112}},
+                                                  {{640, 480}, {112, 112}},
+                                                  {{333, 250}, {112, 112}},
+                                                  {{320, 240}, {112, 112}},
+                                                  {{97, 61}, {40, 13}},
+                                                  {{112, 112}, {112, 112}}}) {
+    cv::Mat bgr, grey, ours, theirs;
+    cv::resize(scene, bgr, from, 0, 0, cv::INTER_LINEAR);
+    cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+    for (const cv::Mat& image : {bgr, grey}) {
+      resizer.resize(image, ours, to);
+      cv::resize(image, theirs, to, 0, 0, cv::INTER_AREA);
+      ASSERT_EQ(ours.size(), to);
+      ASSERT_EQ(ours.type(), image.type());
+      const auto [largest, fraction] = difference(ours, theirs);
+      EXPECT_LE(largest, 1) << from << " -> " << to << ", " << image.channels() << " channels";
+      EXPECT_LT(fraction, 0.01) << from << " -> " << to << ", " << image.channels() << " channels";
+    }
+  }
+}
+
+// What the selector measures on a 640x480 frame: the grey copy at 320 px is exactly the one
+// OpenCV's resize and conversion give; 112 x 112 within one grey level.
+TEST(QualityImages, MatchTheOpenCvPipelineOnACameraFrame) {
+  const cv::Mat frame = make_scene(640, 480);
+  const QualityConfig quality;
+  QualityImages images;
+  for (int round = 0; round < 2; ++round) {  // the second time on reused buffers
+    images.prepare(frame, quality.size, quality.sharpness_width);
+    cv::Mat work, work_grey, small, grey;
+    cv::resize(frame, work, {}, 0.5, 0.5, cv::INTER_AREA);
+    cv::cvtColor(work, work_grey, cv::COLOR_BGR2GRAY);
+    cv::resize(work, small, {quality.size, quality.size}, 0, 0, cv::INTER_AREA);
+    cv::cvtColor(small, grey, cv::COLOR_BGR2GRAY);
+    EXPECT_EQ(difference(images.work_grey, work_grey).first, 0);
+    EXPECT_LE(difference(images.small, small).first, 1);
+    EXPECT_LE(difference(images.grey, grey).first, 1);
+  }
+  // A frame no wider than the sharpness width is measured as it is.
+  const cv::Mat narrow = make_scene(320, 240);
+  images.prepare(narrow, quality.size, quality.sharpness_width);
+  EXPECT_EQ(images.work.data, narrow.data);
+  EXPECT_EQ(difference(images.work_grey, grey_of(narrow)).first, 0);
 }
 
 // One drone of a small generated street: frames with ground-truth motion blur.

@@ -1,16 +1,23 @@
 #pragma once
 // Per-frame image quality, as the first seed (blur, exposure) and the second seed
-// (sharpness) define it. Pure functions: no state, no threads.
+// (sharpness) define it. The free functions are pure; the workspace types only hold buffers
+// (and tables) that the per-frame path reuses, one per selector: not shared between threads.
 #include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <vector>
 
 namespace keyfleet::agent {
 
-// Energy of Laplacian of a grey image: the sum of squared responses of Pertuz et al.'s
-// 3x3 kernel (1/6)[1 4 1; 4 -20 4; 1 4 1], replicated border. Higher = sharper.
+// Energy of Laplacian of an 8-bit grey image: the sum of squared responses of Pertuz et al.'s
+// 3x3 kernel (1/6)[1 4 1; 4 -20 4; 1 4 1], replicated border. Higher = sharper. Computed in
+// integers (the responses times 6, squared, summed, divided by 36), so it is exact.
 double energy_of_laplacian(const cv::Mat& grey);
 
-// 1 / sum((L - 50)^2) over the CIELAB lightness L in [0, 100] of a BGR image: a frame whose
-// lightness sits around the middle scores high, over- and under-exposed ones low.
+// 1 / (1 + sum((L - 50)^2)) over the CIELAB lightness L in [0, 100] of an 8-bit BGR image
+// (OpenCV's 8-bit L, 255 steps): a frame whose lightness sits around the middle scores high,
+// over- and under-exposed ones low. `lab` is a buffer for the conversion.
+double brightness_score(const cv::Mat& bgr, cv::Mat& lab);
 double brightness_score(const cv::Mat& bgr);
 
 struct SharpnessParams {
@@ -18,15 +25,62 @@ struct SharpnessParams {
   double sharp_ratio = 0.8;    // difference-of-differences / first-difference of a sharp edge
 };
 
+// Buffers of kumar_sharpness, reused from frame to frame.
+struct SharpnessScratch {
+  cv::Mat padded_grey;                // the grey image, 1 replicated pixel around
+  cv::Mat median;                     // its 3x3 median, 2 replicated pixels around
+  std::vector<std::uint8_t> columns;  // sorted column triples of one row
+  std::vector<std::int16_t> rows;     // differences and their horizontal sums, a few rows
+};
+
 // Kumar et al. (2012) sharpness: on a 3x3 median-filtered grey image, per direction, the
 // first difference |I(i+1) - I(i-1)| (edge contrast) and the difference of differences
-// |I(i+2) - 2 I(i) + I(i-2)|, each summed over a 3x3 window. An edge pixel is sharp where
-// the ratio of the second sum to the first exceeds sharp_ratio; Rx and Ry are the sharp
-// fractions of the edge pixels. The score is min(Rx, Ry) in [0, 1], not the combined
-// sqrt(Rx^2 + Ry^2) / sqrt(2): motion blur smears one direction and leaves the other sharp,
-// and the combined score then stays high (measured on the ten ICDAR photos at 320 px:
-// 8-px blurred copies 0.59-0.89 against 0.86-0.98 sharp). With min(Rx, Ry) and these
-// thresholds: sharp >= 0.75, 4 px <= 0.52, 8 px <= 0.27, so the seed's 0.5 gate separates.
+// |I(i+2) - 2 I(i) + I(i-2)| (replicated border), each summed over a 3x3 window (reflected
+// border). An edge pixel is sharp where the ratio of the second sum to the first exceeds
+// sharp_ratio; Rx and Ry are the sharp fractions of the edge pixels. The score is
+// min(Rx, Ry) in [0, 1], not the combined sqrt(Rx^2 + Ry^2) / sqrt(2): motion blur smears
+// one direction and leaves the other sharp, and the combined score then stays high (measured
+// on the ten ICDAR photos at 320 px: 8-px blurred copies 0.59-0.89 against 0.86-0.98 sharp).
+// With min(Rx, Ry) and these thresholds: sharp >= 0.75, 4 px <= 0.52, 8 px <= 0.27, so the
+// seed's 0.5 gate separates. One pass over 16-bit rows after the median (no float images);
+// the same counts as the straightforward OpenCV formulation (filter2D, boxFilter, compare).
+double kumar_sharpness(const cv::Mat& grey, const SharpnessParams& params,
+                       SharpnessScratch& scratch);
 double kumar_sharpness(const cv::Mat& grey, const SharpnessParams& params = {});
+
+// cv::resize(..., INTER_AREA) for 8-bit images with 1 to 4 channels when shrinking: integer
+// factors go to OpenCV's own fast path, other factors to a separable pass (rows, then
+// columns) with weight tables kept for the next frame of the same size. Results equal
+// OpenCV's up to the rounding of a float sum (at most 1 grey level, rarely).
+class AreaResizer {
+ public:
+  void resize(const cv::Mat& src, cv::Mat& dst, cv::Size size);
+
+ private:
+  struct Taps {  // per output index: the first source index and `count` weights
+    std::vector<int> first;
+    std::vector<float> weights;  // `count` per output index, zero-padded
+    int count = 0;
+  };
+  static Taps taps(int source, int target);
+
+  cv::Size from_, to_;
+  Taps x_, y_;
+  std::vector<float> rows_;  // one output row's vertical sums, all source columns
+};
+
+// The images one frame is scored on, and the buffers that make them, reused per frame.
+struct QualityImages {
+  cv::Mat work;       // the frame area-resized to the sharpness width (or the frame itself)
+  cv::Mat work_grey;  // its grey copy: the sharpness is measured on it
+  cv::Mat small;      // size x size, area-resized from `work`: brightness
+  cv::Mat grey;       // its grey copy: blur
+  AreaResizer to_width, to_size;
+  cv::Mat resized, lab;
+  SharpnessScratch sharpness;
+
+  // Fills work, work_grey, small and grey from a BGR frame (never upscales to the width).
+  void prepare(const cv::Mat& bgr, int size, int sharpness_width);
+};
 
 }  // namespace keyfleet::agent

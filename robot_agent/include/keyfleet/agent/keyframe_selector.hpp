@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "keyfleet/agent/frame_source.hpp"
+#include "keyfleet/agent/image_quality.hpp"
 #include "keyfleet/agent/keyframe_trigger.hpp"
 #include "keyfleet/agent/text_segmenter.hpp"
 #include "keyfleet/common/config.hpp"
@@ -58,7 +59,7 @@ class HierarchicalSelector final : public KeyframeSelector {
     Frame frame;
     double blur = 0, brightness = 0, sharpness = 0;
   };
-  // The scores of one frame (what push() computes for every frame).
+  // The scores of one frame (what push() computes for every frame), on reused buffers.
   Scored score(const Frame& frame);
 
  private:
@@ -77,6 +78,7 @@ class HierarchicalSelector final : public KeyframeSelector {
   std::optional<Window> pending_;
   std::optional<std::uint64_t> last_selected_;
   std::uint64_t vslam_keyframes_ = 0;
+  QualityImages images_;  // the per-frame scoring's buffers
 };
 
 // Builds the configured trigger, segmenter (for the semantic strategies) and selector.
