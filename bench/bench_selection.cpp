@@ -1,12 +1,20 @@
 // The agent's per-frame selection cost on 640x480 frames, stage by stage, like the first
 // seed's breakdown (resize, blur, brightness, sharpness, trigger, semantic), and amortised
-// over a generated flight. Prints figures; never pass/fail.
+// over a generated flight. The quality stages run both as they were before the fused
+// implementation and as they are now, and a table at the end puts them side by side with
+// the per-frame total (issue 4's target: under 1 ms on one core). Prints figures; never
+// pass/fail.
 //   build/bin/bench_selection [--benchmark_repetitions=5 --benchmark_report_aggregates_only=true]
+//   build/bin/bench_selection --benchmark_filter=quality/ --benchmark_repetitions=9
 #include <benchmark/benchmark.h>
 #include <opencv2/imgproc.hpp>
 
 #include <filesystem>
-#include <random>
+#include <iomanip>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
 
 #include "keyfleet/agent/image_quality.hpp"
 #include "keyfleet/agent/keyframe_selector.hpp"
@@ -47,36 +55,221 @@ const Flight& flight() {
 
 const cv::Mat& frame(std::size_t i) { return flight().frames[i % flight().frames.size()].image; }
 
-void BM_Resize112(benchmark::State& state) {
-  cv::Mat small;
+// --- quality + sharpness, before and after --------------------------------------------------
+
+// The per-frame scoring as it was before the fused implementation (OpenCV operations on float
+// images, fresh temporaries every frame), kept as the baseline the figures compare with.
+namespace before {
+
+double energy_of_laplacian(const cv::Mat& grey) {
+  static const cv::Mat kernel = (cv::Mat_<float>(3, 3) << 1, 4, 1, 4, -20, 4, 1, 4, 1) / 6.0f;
+  cv::Mat response;
+  cv::filter2D(grey, response, CV_32F, kernel, {-1, -1}, 0, cv::BORDER_REPLICATE);
+  return response.dot(response);
+}
+
+double brightness_score(const cv::Mat& bgr) {
+  cv::Mat lab, lightness;
+  cv::cvtColor(bgr, lab, cv::COLOR_BGR2Lab);
+  cv::extractChannel(lab, lightness, 0);
+  lightness.convertTo(lightness, CV_32F, 100.0 / 255.0, -50.0);
+  return 1.0 / (1.0 + lightness.dot(lightness));
+}
+
+double sharp_fraction(const cv::Mat& image, bool along_x, const agent::SharpnessParams& params) {
+  static const cv::Mat first_difference = (cv::Mat_<float>(1, 3) << -1, 0, 1);
+  static const cv::Mat second_difference = (cv::Mat_<float>(1, 5) << 1, 0, -2, 0, 1);
+  cv::Mat first, second;
+  cv::filter2D(image, first, CV_32F, along_x ? first_difference : first_difference.t(), {-1, -1}, 0,
+               cv::BORDER_REPLICATE);
+  cv::filter2D(image, second, CV_32F, along_x ? second_difference : second_difference.t(), {-1, -1},
+               0, cv::BORDER_REPLICATE);
+  first = cv::abs(first);
+  second = cv::abs(second);
+  cv::boxFilter(first, first, -1, {3, 3}, {-1, -1}, false);
+  cv::boxFilter(second, second, -1, {3, 3}, {-1, -1}, false);
+  const cv::Mat edges = first > params.edge_contrast;
+  const int edge_count = cv::countNonZero(edges);
+  if (edge_count == 0) return 0;
+  const int sharp = cv::countNonZero(edges & (second > first * params.sharp_ratio));
+  return double(sharp) / edge_count * std::min(1.0, edge_count / (0.02 * double(image.total())));
+}
+
+double kumar_sharpness(const cv::Mat& grey, const agent::SharpnessParams& params) {
+  cv::Mat smooth;
+  cv::medianBlur(grey, smooth, 3);
+  return std::min(sharp_fraction(smooth, true, params), sharp_fraction(smooth, false, params));
+}
+
+struct Images {
+  cv::Mat work, small, grey, work_grey;
+  void prepare(const cv::Mat& bgr, int size, int width) {
+    const double f = std::min(1.0, double(width) / bgr.cols);
+    work = f < 1 ? cv::Mat() : bgr;
+    if (f < 1) cv::resize(bgr, work, {}, f, f, cv::INTER_AREA);
+    cv::resize(work, small, {size, size}, 0, 0, cv::INTER_AREA);
+    cv::cvtColor(small, grey, cv::COLOR_BGR2GRAY);
+    cv::cvtColor(work, work_grey, cv::COLOR_BGR2GRAY);
+  }
+};
+
+}  // namespace before
+
+// What the selector does per frame before the semantic stage, in either implementation.
+struct Scoring {
+  virtual ~Scoring() = default;
+  virtual void prepare(const cv::Mat& bgr) = 0;
+  virtual double blur() = 0;
+  virtual double brightness() = 0;
+  virtual double sharpness() = 0;
+};
+
+const QualityConfig kQuality;
+const agent::SharpnessParams kSharpness{kQuality.edge_contrast, kQuality.sharp_ratio};
+
+struct BeforeScoring final : Scoring {
+  before::Images images;
+  void prepare(const cv::Mat& bgr) override {
+    images = {};  // fresh temporaries every frame, as the selector had them
+    images.prepare(bgr, kQuality.size, kQuality.sharpness_width);
+  }
+  double blur() override { return before::energy_of_laplacian(images.grey); }
+  double brightness() override { return before::brightness_score(images.small); }
+  double sharpness() override { return before::kumar_sharpness(images.work_grey, kSharpness); }
+};
+
+struct AfterScoring final : Scoring {
+  agent::QualityImages images;
+  void prepare(const cv::Mat& bgr) override {
+    images.prepare(bgr, kQuality.size, kQuality.sharpness_width);
+  }
+  double blur() override { return agent::energy_of_laplacian(images.grey); }
+  double brightness() override { return agent::brightness_score(images.small, images.lab); }
+  double sharpness() override {
+    return agent::kumar_sharpness(images.work_grey, kSharpness, images.sharpness);
+  }
+};
+
+std::unique_ptr<Scoring> make_scoring(bool after) {
+  if (after) return std::make_unique<AfterScoring>();
+  return std::make_unique<BeforeScoring>();
+}
+
+enum class Stage { kResize, kBlur, kBrightness, kSharpness, kTotal };
+constexpr const char* kStageNames[] = {"resize", "blur", "brightness", "sharpness", "total"};
+
+// One stage on one frame. Not inlined, so that instruction counts can be taken for it alone:
+//   valgrind --tool=callgrind --toggle-collect='*run_stage*' bench_selection
+//       --benchmark_filter=quality/total --benchmark_min_time=0.01
+// and callgrind_annotate --inclusive=yes: its Ir over its calls is the count per frame.
+[[gnu::noinline]] double run_stage(Scoring& s, Stage stage, const cv::Mat& bgr) {
+  switch (stage) {
+    case Stage::kResize: s.prepare(bgr); return 0;
+    case Stage::kBlur: return s.blur();
+    case Stage::kBrightness: return s.brightness();
+    case Stage::kSharpness: return s.sharpness();
+    case Stage::kTotal: s.prepare(bgr); return s.blur() + s.brightness() + s.sharpness();
+  }
+  return 0;
+}
+
+// One stage over the flight's frames (the later stages on images prepared beforehand, so
+// that only the stage is timed), or the whole per-frame scoring for kTotal.
+void BM_Quality(benchmark::State& state, Stage stage, bool after) {
+  const std::size_t n = flight().frames.size();
+  std::vector<std::unique_ptr<Scoring>> prepared;
+  if (stage != Stage::kResize && stage != Stage::kTotal)
+    for (std::size_t i = 0; i < n; ++i) {
+      prepared.push_back(make_scoring(after));
+      prepared.back()->prepare(frame(i));
+    }
+  auto scoring = make_scoring(after);
+  // Warm up outside the timed loop: OpenCV builds its Lab tables on the first conversion.
+  scoring->prepare(frame(0));
+  benchmark::DoNotOptimize(scoring->blur() + scoring->brightness() + scoring->sharpness());
   std::size_t i = 0;
-  for (auto _ : state) cv::resize(frame(i++), small, {112, 112}, 0, 0, cv::INTER_AREA);
+  for (auto _ : state) {
+    Scoring& s = prepared.empty() ? *scoring : *prepared[i % n];
+    benchmark::DoNotOptimize(run_stage(s, stage, frame(i)));
+    ++i;
+  }
 }
-BENCHMARK(BM_Resize112)->Unit(benchmark::kMicrosecond);
 
-void BM_BlurEnergy112(benchmark::State& state) {
-  cv::Mat small, grey;
-  cv::resize(frame(0), small, {112, 112}, 0, 0, cv::INTER_AREA);
-  cv::cvtColor(small, grey, cv::COLOR_BGR2GRAY);
-  for (auto _ : state) benchmark::DoNotOptimize(agent::energy_of_laplacian(grey));
+// The same through HierarchicalSelector::score, which also runs the stage clocks.
+void BM_SelectorScore(benchmark::State& state) {
+  SelectorConfig config;
+  config.strategy = SelectorConfig::Strategy::kQuality;
+  config.trigger.kind = TriggerConfig::Kind::kStride;
+  agent::HierarchicalSelector selector(config, std::make_unique<agent::StrideTrigger>(30), nullptr,
+                                       nullptr);
+  std::size_t i = 0;
+  for (auto _ : state)
+    benchmark::DoNotOptimize(selector.score(flight().frames[i++ % flight().frames.size()]));
 }
-BENCHMARK(BM_BlurEnergy112)->Unit(benchmark::kMicrosecond);
 
-void BM_Brightness112(benchmark::State& state) {
-  cv::Mat small;
-  cv::resize(frame(0), small, {112, 112}, 0, 0, cv::INTER_AREA);
-  for (auto _ : state) benchmark::DoNotOptimize(agent::brightness_score(small));
+void register_quality_benchmarks() {
+  for (Stage stage :
+       {Stage::kResize, Stage::kBlur, Stage::kBrightness, Stage::kSharpness, Stage::kTotal})
+    for (bool after : {false, true})
+      benchmark::RegisterBenchmark(
+          (std::string("quality/") + kStageNames[int(stage)] + (after ? "/after" : "/before"))
+              .c_str(),
+          BM_Quality, stage, after)
+          ->Unit(benchmark::kMicrosecond);
+  benchmark::RegisterBenchmark("quality/total/selector_score", BM_SelectorScore)
+      ->Unit(benchmark::kMicrosecond);
 }
-BENCHMARK(BM_Brightness112)->Unit(benchmark::kMicrosecond);
 
-void BM_Sharpness(benchmark::State& state) {  // arg: working width
-  cv::Mat grey;
-  cv::cvtColor(frame(0), grey, cv::COLOR_BGR2GRAY);
-  const double f = double(state.range(0)) / grey.cols;
-  if (f < 1) cv::resize(grey, grey, {}, f, f, cv::INTER_AREA);
-  for (auto _ : state) benchmark::DoNotOptimize(agent::kumar_sharpness(grey));
-}
-BENCHMARK(BM_Sharpness)->Arg(320)->Arg(640)->Unit(benchmark::kMicrosecond);
+// Prints the console output as usual, then the quality stages side by side: CPU time per
+// frame, the median when repetitions ran, otherwise the single run.
+class QualitySummary : public benchmark::ConsoleReporter {
+ public:
+  void ReportRuns(const std::vector<Run>& runs) override {
+    ConsoleReporter::ReportRuns(runs);
+    for (const auto& run : runs) {
+      const std::string name = run.run_name.function_name;
+      if (name.rfind("quality/", 0) != 0 || run.error_occurred) continue;
+      const bool median = run.run_type == Run::RT_Aggregate && run.aggregate_name == "median";
+      if (run.run_type == Run::RT_Aggregate && !median) continue;
+      if (run.run_type == Run::RT_Iteration && run.repetitions > 1) continue;
+      cpu_us_[name] = run.GetAdjustedCPUTime();  // microseconds (the unit registered)
+      summary_of_ = median ? "median of the repetitions" : "one run; add --benchmark_repetitions";
+    }
+  }
+  void Finalize() override {
+    ConsoleReporter::Finalize();
+    if (cpu_us_.empty()) return;
+    auto& out = GetOutputStream();
+    out << "\nquality + sharpness per 640x480 frame, one core, CPU ms (" << summary_of_ << ")\n";
+    out << "stage         before     after     ratio\n";
+    double before_sum = 0, after_sum = 0;
+    for (const char* stage : kStageNames) {
+      const auto b = cpu_us_.find(std::string("quality/") + stage + "/before");
+      const auto a = cpu_us_.find(std::string("quality/") + stage + "/after");
+      if (b == cpu_us_.end() || a == cpu_us_.end()) continue;
+      if (std::string(stage) != "total") {
+        before_sum += b->second;
+        after_sum += a->second;
+      }
+      print(out, stage, b->second, a->second);
+    }
+    if (before_sum > 0) print(out, "sum of stages", before_sum, after_sum);
+    const auto selector = cpu_us_.find("quality/total/selector_score");
+    if (selector != cpu_us_.end())
+      out << "HierarchicalSelector::score (with its stage clocks): " << std::fixed
+          << std::setprecision(3) << selector->second / 1000 << " ms per frame\n";
+  }
+
+ private:
+  static void print(std::ostream& out, const std::string& stage, double before_us,
+                    double after_us) {
+    out << std::left << std::setw(12) << stage << std::right << std::fixed << std::setprecision(3)
+        << std::setw(8) << before_us / 1000 << std::setw(10) << after_us / 1000 << std::setw(9)
+        << std::setprecision(1) << before_us / after_us << "x\n";
+  }
+  std::map<std::string, double> cpu_us_;
+  std::string summary_of_;
+};
 
 void BM_OrbSlamTrigger(benchmark::State& state) {  // arg: image scale in percent
   agent::OrbSlamTriggerParams params;
@@ -117,7 +310,9 @@ int main(int argc, char** argv) {
   keyfleet::keep_image_buffers_in_heap();
   cv::setNumThreads(1);  // one core, as the targets are stated
   flight();              // generate the frames before any timing
+  register_quality_benchmarks();
   benchmark::Initialize(&argc, argv);
-  benchmark::RunSpecifiedBenchmarks();
+  QualitySummary reporter;
+  benchmark::RunSpecifiedBenchmarks(&reporter);
   benchmark::Shutdown();
 }
