@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstdlib>
+#include <numeric>
 
 // The per-frame loops below are plain loops over 8- and 16-bit rows, written so that the
 // compiler vectorises them at the baseline instruction set (no intrinsics, no -march).
@@ -286,23 +287,22 @@ double kumar_sharpness(const cv::Mat& grey, const SharpnessParams& params) {
 }
 
 AreaResizer::Taps AreaResizer::taps(int source, int target) {
-  // Output i averages the source interval [i s, (i + 1) s), s = source / target, each source
-  // pixel weighted by its overlap with it.
-  const double scale = double(source) / target;
-  constexpr double kSliver = 1e-6;  // overlaps below this are rounding, not pixels
+  // In units of 1/b pixel (s = a / b): source pixel j spans [j b, (j + 1) b), output i spans
+  // [i a, (i + 1) a); their overlap is a whole number of units.
+  const int g = std::gcd(source, target), a = source / g, b = target / g;
   Taps t;
-  t.count = int(std::ceil(scale)) + 1;
+  t.count = (a + b - 1) / b + 1;  // an interval of a units meets at most ceil(a / b) + 1 pixels
+  t.sum = a;
   t.first.resize(std::size_t(target));
-  t.weights.assign(std::size_t(target) * t.count, 0.0f);
+  t.overlaps.assign(std::size_t(target) * t.count, 0);
   for (int i = 0; i < target; ++i) {
-    const double lo = i * scale, hi = std::min(double(source), (i + 1) * scale);
-    int j = int(std::floor(lo));
-    if (j + 1 - lo < kSliver) ++j;
+    const std::int64_t lo = std::int64_t(i) * a, hi = lo + a;
+    const int j = int(lo / b);
     t.first[std::size_t(i)] = j;
     for (int k = 0; k < t.count && j + k < source; ++k) {
-      const double overlap = std::min(hi, j + k + 1.0) - std::max(lo, double(j + k));
-      if (overlap < kSliver) break;
-      t.weights[std::size_t(i) * t.count + k] = float(overlap / (hi - lo));
+      const std::int64_t overlap =
+          std::min(hi, std::int64_t(j + k + 1) * b) - std::max(lo, std::int64_t(j + k) * b);
+      if (overlap > 0) t.overlaps[std::size_t(i) * t.count + k] = std::uint16_t(overlap);
     }
   }
   return t;
@@ -313,24 +313,27 @@ namespace {
 // One output row from the vertical sums of all source columns; kChannels and kCount fixed
 // at compile time for the usual cases (the inner loops then unroll), 0 = given at run time.
 template <int kChannels, int kCount>
-void area_columns(const float* sums, const std::vector<int>& first,
-                  const std::vector<float>& weights, int count, int channels, int width,
-                  std::uint8_t* out) {
+void area_columns(const std::uint16_t* __restrict sums, const std::vector<int>& first,
+                  const std::vector<std::uint16_t>& overlaps, int count, int channels,
+                  std::uint64_t reciprocal, std::uint32_t half, int width,
+                  std::uint8_t* __restrict out) {
   const int cn = kChannels > 0 ? kChannels : channels;
   const int taps = kCount > 0 ? kCount : count;
-  for (int x = 0; x < width; ++x) {
-    const float* w = &weights[std::size_t(x) * taps];
-    const float* s = sums + std::size_t(first[std::size_t(x)]) * cn;
+  const std::uint16_t* __restrict w = overlaps.data();
+  const int* __restrict starts = first.data();
+  for (int x = 0; x < width; ++x, w += taps) {
+    const std::uint16_t* __restrict s = sums + std::size_t(starts[x]) * cn;
     for (int c = 0; c < cn; ++c) {
-      float v = 0;
-      for (int k = 0; k < taps; ++k) v += w[k] * s[k * cn + c];
-      out[x * cn + c] = std::uint8_t(std::min(cvRound(v), 255));  // v >= 0: weights >= 0
+      std::uint32_t total = half;
+      for (int k = 0; k < taps; ++k) total += std::uint32_t(w[k]) * s[k * cn + c];
+      out[x * cn + c] = std::uint8_t((total * reciprocal) >> 32);
     }
   }
 }
 
-using AreaColumns = void (*)(const float*, const std::vector<int>&, const std::vector<float>&, int,
-                             int, int, std::uint8_t*);
+using AreaColumns = void (*)(const std::uint16_t*, const std::vector<int>&,
+                             const std::vector<std::uint16_t>&, int, int, std::uint64_t,
+                             std::uint32_t, int, std::uint8_t*);
 
 AreaColumns area_columns_for(int channels, int count) {
   if (channels == 3 && count == 3) return area_columns<3, 3>;
@@ -341,40 +344,54 @@ AreaColumns area_columns_for(int channels, int count) {
   return area_columns<0, 0>;
 }
 
+// Rows j.. of `src` weighted by `overlaps` (zero-padded) into 16-bit sums of n values.
+void area_rows(const cv::Mat& src, int j, const std::uint16_t* overlaps, int count, int n,
+               std::uint16_t* __restrict sums) {
+  const std::uint8_t* __restrict s = src.ptr(j);
+  const std::uint16_t w0 = overlaps[0];
+  for (int k = 0; k < n; ++k) sums[k] = std::uint16_t(w0 * s[k]);
+  for (int t = 1; t < count && overlaps[t] > 0; ++t) {
+    const std::uint8_t* __restrict r = src.ptr(j + t);
+    const std::uint16_t w = overlaps[t];
+    for (int k = 0; k < n; ++k) sums[k] = std::uint16_t(sums[k] + w * r[k]);
+  }
+}
+
 }  // namespace
 
 void AreaResizer::resize(const cv::Mat& src, cv::Mat& dst, cv::Size size) {
   const bool shrinks = size.width <= src.cols && size.height <= src.rows;
   const bool integer_factors = size.width > 0 && size.height > 0 && src.cols % size.width == 0 &&
                                src.rows % size.height == 0;
-  if (src.depth() != CV_8U || src.channels() > 4 || !shrinks || integer_factors) {
-    cv::resize(src, dst, size, 0, 0, cv::INTER_AREA);  // OpenCV's fast path for integer factors
-    return;
-  }
-  const int cn = src.channels();
-  if (src.size() != from_ || size != to_) {
+  if (src.depth() == CV_8U && src.channels() <= 4 && shrinks && !integer_factors &&
+      (src.size() != from_ || size != to_)) {
     x_ = taps(src.cols, size.width);
     y_ = taps(src.rows, size.height);
     from_ = src.size();
     to_ = size;
+    // Vertical sums in 16 bits; the rounded quotient by the product of the two unit sums
+    // as a multiplication, checked for every total that can occur.
+    const std::uint64_t divisor = std::uint64_t(x_.sum) * std::uint64_t(y_.sum);
+    exact_ = y_.sum * 255 <= 65535 && divisor * 255 < (1u << 24);
+    reciprocal_ = exact_ ? ((std::uint64_t(1) << 32) / divisor + 1) : 0;
+    for (std::uint64_t n = 0; exact_ && n <= divisor * 255 + divisor / 2; ++n)
+      exact_ = ((n * reciprocal_) >> 32) == n / divisor;
   }
-  // Zero weights may reach past the last column: those sums stay zero.
-  rows_.assign((std::size_t(src.cols) + x_.count) * cn, 0.0f);
+  if (src.depth() != CV_8U || src.channels() > 4 || !shrinks || integer_factors || !exact_) {
+    cv::resize(src, dst, size, 0, 0, cv::INTER_AREA);  // OpenCV's fast path for integer factors
+    return;
+  }
+  const int cn = src.channels(), n = src.cols * cn;
+  // Zero overlaps may reach past the last column: those sums stay zero.
+  rows_.assign((std::size_t(src.cols) + x_.count) * cn, 0);
   dst.create(size, src.type());
-  const int n = src.cols * cn;
-  float* sums = rows_.data();
   const AreaColumns columns = area_columns_for(cn, x_.count);
+  const auto half = std::uint32_t(std::uint64_t(x_.sum) * y_.sum / 2);
   for (int i = 0; i < size.height; ++i) {
-    const float* wy = &y_.weights[std::size_t(i) * y_.count];
-    const int j = y_.first[std::size_t(i)];
-    const std::uint8_t* s = src.ptr(j);
-    for (int k = 0; k < n; ++k) sums[k] = wy[0] * float(s[k]);
-    for (int t = 1; t < y_.count && wy[t] > 0; ++t) {
-      s = src.ptr(j + t);
-      const float weight = wy[t];
-      for (int k = 0; k < n; ++k) sums[k] += weight * float(s[k]);
-    }
-    columns(sums, x_.first, x_.weights, x_.count, cn, size.width, dst.ptr(i));
+    area_rows(src, y_.first[std::size_t(i)], &y_.overlaps[std::size_t(i) * y_.count], y_.count, n,
+              rows_.data());
+    columns(rows_.data(), x_.first, x_.overlaps, x_.count, cn, reciprocal_, half, size.width,
+            dst.ptr(i));
   }
 }
 

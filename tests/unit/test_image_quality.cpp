@@ -395,6 +395,36 @@ TEST(AreaResizer, AgreesWithOpenCvInterArea) {
   }
 }
 
+// Against the definition: each output pixel is the mean of the source area it covers
+// (overlaps computed in double here), rounded to the nearest level.
+TEST(AreaResizer, RoundsTheExactAreaMean) {
+  const cv::Mat scene = make_scene(320, 240);
+  AreaResizer resizer;
+  for (const auto& [from, to] : std::vector<std::pair<cv::Size, cv::Size>>{
+           {{320, 240}, {112, 112}}, {{97, 61}, {40, 13}}, {{50, 50}, {49, 3}}}) {
+    cv::Mat bgr, ours;
+    cv::resize(scene, bgr, from, 0, 0, cv::INTER_LINEAR);
+    resizer.resize(bgr, ours, to);
+    const double sx = double(from.width) / to.width, sy = double(from.height) / to.height;
+    auto overlap = [](double lo, double hi, int j) {
+      return std::max(0.0, std::min(hi, j + 1.0) - std::max(lo, double(j)));
+    };
+    double worst = 0;
+    for (int y = 0; y < to.height; ++y)
+      for (int x = 0; x < to.width; ++x)
+        for (int c = 0; c < 3; ++c) {
+          double mean = 0;
+          for (int j = int(y * sy); j < std::min(from.height, int(std::ceil((y + 1) * sy))); ++j)
+            for (int i = int(x * sx); i < std::min(from.width, int(std::ceil((x + 1) * sx))); ++i)
+              mean += overlap(y * sy, (y + 1) * sy, j) * overlap(x * sx, (x + 1) * sx, i) *
+                      bgr.at<cv::Vec3b>(j, i)[c];
+          mean /= sx * sy;
+          worst = std::max(worst, std::abs(ours.at<cv::Vec3b>(y, x)[c] - mean));
+        }
+    EXPECT_LE(worst, 0.5 + 1e-9) << from << " -> " << to;
+  }
+}
+
 // What the selector measures on a 640x480 frame: the grey copy at 320 px is exactly the one
 // OpenCV's resize and conversion give; 112 x 112 within one grey level.
 TEST(QualityImages, MatchTheOpenCvPipelineOnACameraFrame) {
