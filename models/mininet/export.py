@@ -6,8 +6,9 @@
 - rewrites the Identity(initializer) nodes that Debian's torch 1.13 emits (OpenCV 4.6 rejects
   them) into plain initializers;
 - rewrites the depthwise 1x3 and 3x1 convolutions as 3x3 ones with zero rows or columns (the same
-  sums: OpenCV 4.6 has a fast path for 3x3 depthwise kernels only, and the whole forward pass
-  takes about 0.85 times as long; --plain-graph keeps them as exported);
+  sums: OpenCV 4.6's own depthwise layer is faster on 3x3 kernels, and the whole forward pass takes
+  about 0.85 times as long; the agent's stand-in depthwise layer skips the zero taps, so it gains
+  little there; --plain-graph keeps them as exported);
 - stores the weights as float16 when --fp16 (OpenCV converts them back on load);
 - runs OpenCV DNN and PyTorch on fixed inputs and fails if they differ by more than --tolerance;
 - writes the JSON description beside the model (what the agent's TextSegmenter reads).

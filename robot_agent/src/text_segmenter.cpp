@@ -7,7 +7,6 @@
 #include <fstream>
 #include <optional>
 
-#include "keyfleet/agent/dnn_selu.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/model_files.hpp"
 
@@ -52,14 +51,14 @@ std::string locate_model(const std::string& configured) {
 }
 
 DnnTextSegmenter::DnnTextSegmenter(const std::string& model_path, int threads,
-                                   std::optional<cv::Size> input_size, DnnSelu selu)
+                                   std::optional<cv::Size> input_size, DnnLayers layers)
     : info_(read_segmenter_info(model_path)) {
   if (input_size) info_.input_size = *input_size;
   if (!std::filesystem::is_regular_file(model_path))
     throw StartupError("segmenter: model file " + model_path + " does not exist");
   // OpenCV creates the layers while importing and on the first forward pass (the probe below).
-  std::optional<VectorisedSeluScope> vectorised;
-  if (selu == DnnSelu::kVectorised) vectorised.emplace();
+  std::optional<DnnLayersScope> stand_ins;
+  if (layers.vectorised_selu || layers.depthwise) stand_ins.emplace(layers);
   try {
     net_ = cv::dnn::readNetFromONNX(model_path);
   } catch (const cv::Exception& e) {

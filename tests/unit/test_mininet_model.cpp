@@ -9,7 +9,7 @@
 #include <fstream>
 #include <optional>
 
-#include "keyfleet/agent/dnn_selu.hpp"
+#include "keyfleet/agent/dnn_layers.hpp"
 #include "keyfleet/agent/segmenter_eval.hpp"
 #include "keyfleet/agent/text_segmenter.hpp"
 #include "keyfleet/common/error.hpp"
@@ -71,26 +71,28 @@ TEST(ShippedMiniNet, FindsTextPixelsOfGeneratedViewsAboveStatedFloors) {
   EXPECT_GT(s.precision, 0.05) << "recall " << s.recall << ", IoU " << s.iou;
 }
 
-// The vectorised SELU (the default) against OpenCV's own on the shipped network: the same
-// logits to float rounding, and so the same masks but for the odd pixel at a tie.
-TEST(ShippedMiniNet, VectorisedSeluGivesOpenCvsLogits) {
+// keyfleet's stand-ins for OpenCV's layers (the default) against OpenCV's own on the shipped
+// network: the same logits to float rounding, and so the same masks but for the odd tie.
+TEST(ShippedMiniNet, StandInLayersGiveOpenCvsLogits) {
   const std::string path = locate_model(kShipped);
   const cv::Size size = read_segmenter_info(path).input_size;
   cv::Mat frame(size, CV_8UC3);
   cv::randu(frame, 0, 256);
   const cv::Mat blob = cv::dnn::blobFromImage(frame, 1 / 255.0, size, cv::Scalar::all(127.5));
   cv::setNumThreads(1);
-  auto logits = [&](bool vectorised) {
-    std::optional<VectorisedSeluScope> scope;
-    if (vectorised) scope.emplace();
+  auto logits = [&](DnnLayers layers) {
+    std::optional<DnnLayersScope> scope;
+    if (layers.vectorised_selu || layers.depthwise) scope.emplace(layers);
     cv::dnn::Net net = cv::dnn::readNetFromONNX(path);
     net.setInput(blob);
     return net.forward().clone();
   };
-  const cv::Mat opencv = logits(false), vectorised = logits(true);
-  EXPECT_LT(cv::norm(opencv, vectorised, cv::NORM_INF), 1e-3);
-  DnnTextSegmenter a(path, 1, std::nullopt, DnnSelu::kOpenCv);
-  DnnTextSegmenter b(path, 1, std::nullopt, DnnSelu::kVectorised);
+  const cv::Mat opencv = logits(DnnLayers::opencv());
+  for (const DnnLayers layers : {DnnLayers{true, false}, DnnLayers{false, true}, DnnLayers{}})
+    EXPECT_LT(cv::norm(opencv, logits(layers), cv::NORM_INF), 1e-3)
+        << "selu " << layers.vectorised_selu << ", depthwise " << layers.depthwise;
+  DnnTextSegmenter a(path, 1, std::nullopt, DnnLayers::opencv());
+  DnnTextSegmenter b(path, 1);
   const cv::Mat ma = a.segment({frame}).at(0), mb = b.segment({frame}).at(0);
   EXPECT_LE(cv::countNonZero(ma != mb), int(1e-4 * size.area()))
       << cv::countNonZero(ma) << " text pixels";

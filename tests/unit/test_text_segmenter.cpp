@@ -1,18 +1,21 @@
 // The semantic seam: the ONNX text segmenter loads its fixture, gives one mask per frame,
 // refuses broken or unusable models with a StartupError naming the file; the text score
-// prefers text away from the frame border; the vectorised SELU computes SELU.
+// prefers text away from the frame border; keyfleet's SELU and depthwise convolution compute
+// what OpenCV's do.
 #include <gtest/gtest.h>
 
+#include <opencv2/dnn/shape_utils.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <optional>
 #include <string>
 #include <vector>
 
-#include "keyfleet/agent/dnn_selu.hpp"
+#include "keyfleet/agent/dnn_layers.hpp"
 #include "keyfleet/agent/text_segmenter.hpp"
 #include "keyfleet/common/error.hpp"
 #include "test_support.hpp"
@@ -78,6 +81,71 @@ TEST(VectorisedSelu, RunsInPlace) {
   selu_vectorised(x.data(), y.data(), int(x.size()), 1.5f, 1.1f);
   selu_vectorised(x.data(), x.data(), int(x.size()), 1.5f, 1.1f);
   EXPECT_EQ(x, y);
+}
+
+// One convolution layer through OpenCV DNN, with or without keyfleet's stand-ins.
+// `type`: the class of layer that ran it.
+cv::Mat convolve(const cv::Mat& input, const cv::Mat& weights, const cv::Mat& bias,
+                 cv::dnn::LayerParams params, DnnLayers layers, std::string* type = nullptr) {
+  params.type = "Convolution";
+  params.name = "conv";
+  params.blobs = {weights};
+  if (!bias.empty()) params.blobs.push_back(bias);
+  params.set("bias_term", !bias.empty());
+  params.set("num_output", weights.size[0]);
+  params.set("kernel_size", cv::dnn::DictValue::arrayInt(&weights.size[2], 2));
+  std::optional<DnnLayersScope> scope;
+  if (layers.depthwise) scope.emplace(layers);
+  cv::dnn::Net net;
+  net.addLayerToPrev(params.name, params.type, params);
+  net.setInput(input);
+  const cv::Mat out = net.forward().clone();
+  if (type) *type = net.getLayer(params.name)->type;
+  return out;
+}
+
+TEST(DepthwiseStandIn, MatchesOpenCvsConvolutionForKernelsDilationsAndPaddings) {
+  struct Case {
+    int kh, kw, dh, dw, stride;
+    std::vector<int> pads;  // top, left, bottom, right (OpenCV's layer wants them symmetric)
+    bool bias, depthwise;
+  };
+  const std::vector<Case> cases = {
+      {3, 3, 1, 1, 1, {1, 1, 1, 1}, false, true}, {1, 3, 1, 4, 1, {0, 4, 0, 4}, true, true},
+      {3, 1, 1, 1, 1, {1, 0, 1, 0}, false, true}, {3, 3, 1, 8, 1, {1, 8, 1, 8}, false, true},
+      {2, 2, 1, 1, 1, {0, 0, 0, 0}, true, true},  {1, 5, 2, 3, 1, {0, 0, 0, 0}, false, true},
+      {3, 3, 2, 2, 1, {2, 1, 2, 1}, true, true},  {3, 3, 1, 1, 2, {1, 1, 1, 1}, false, true},
+      {3, 3, 1, 1, 1, {1, 1, 1, 1}, true, false}};  // the last two stay OpenCV's
+  cv::RNG rng(7);
+  for (const Case& c : cases)
+    for (int width : {1, 5, 16, 37}) {
+      const int channels = 6, groups = c.depthwise ? channels : 1;
+      cv::Mat input({2, channels, 9, width}, CV_32F),
+          weights({channels, channels / groups, c.kh, c.kw}, CV_32F);
+      rng.fill(input, cv::RNG::UNIFORM, -2, 2);
+      rng.fill(weights, cv::RNG::UNIFORM, -1, 1);
+      if (c.kh == 3 && c.kw == 3 && c.dw == 8) weights.setTo(0);  // zero taps are skipped
+      cv::Mat bias;
+      if (c.bias) {
+        bias.create(1, channels, CV_32F);
+        rng.fill(bias, cv::RNG::UNIFORM, -1, 1);
+      }
+      cv::dnn::LayerParams params;
+      params.set("group", groups);
+      const int stride[] = {c.stride, c.stride}, dilation[] = {c.dh, c.dw};
+      params.set("stride", cv::dnn::DictValue::arrayInt(stride, 2));
+      params.set("dilation", cv::dnn::DictValue::arrayInt(dilation, 2));
+      const int pads[] = {c.pads[0], c.pads[1], c.pads[2], c.pads[3]};
+      params.set("pad", cv::dnn::DictValue::arrayInt(pads, 4));
+      if (width + c.pads[1] + c.pads[3] < c.dw * (c.kw - 1) + 1) continue;  // no output column
+      const cv::Mat expected = convolve(input, weights, bias, params, DnnLayers::opencv());
+      std::string type;
+      const cv::Mat got = convolve(input, weights, bias, params, DnnLayers{}, &type);
+      EXPECT_EQ(type, c.depthwise && c.stride == 1 ? "KeyfleetDepthwise" : "Convolution");
+      ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected)) << "width " << width;
+      EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-5)
+          << c.kh << "x" << c.kw << " dilation " << c.dh << "," << c.dw << " width " << width;
+    }
 }
 
 // --- DnnTextSegmenter --------------------------------------------------------------------------

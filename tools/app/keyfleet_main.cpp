@@ -124,18 +124,20 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
   const std::string model = agent::locate_model(o.model);
   const auto info = agent::read_segmenter_info(model);
   std::printf("model %s: %s\n", model.c_str(), info.description.c_str());
-  // Each model with OpenCV's SELU and with the vectorised one (the default).
+  // Each model with OpenCV's layers, with the vectorised SELU only, and with both stand-ins
+  // (the default; agent/dnn_layers.hpp).
   struct Variant {
     std::string model, label;
-    agent::DnnSelu selu;
+    agent::DnnLayers layers;
   };
   std::vector<Variant> variants;
   for (std::size_t i = 0; i <= o.compare.size(); ++i) {
     const std::string path = i ? agent::locate_model(o.compare[i - 1]) : model;
     if (i) std::printf("compare %zu: %s\n", i, path.c_str());
     const std::string name = i ? "compare " + std::to_string(i) : "model";
-    variants.push_back({path, name + ", OpenCV SELU", agent::DnnSelu::kOpenCv});
-    variants.push_back({path, name + ", vectorised SELU", agent::DnnSelu::kVectorised});
+    variants.push_back({path, name + ", OpenCV layers", agent::DnnLayers::opencv()});
+    variants.push_back({path, name + ", vectorised SELU", agent::DnnLayers{true, false}});
+    variants.push_back({path, name + ", SELU + depthwise", agent::DnnLayers{}});
   }
   const std::vector<cv::Size> sizes = {{512, 256}, {256, 128}, info.input_size};
   std::printf("\nms per forward pass (median of %d, the variants taking turns)\n", o.repetitions);
@@ -145,7 +147,7 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
     std::vector<std::unique_ptr<agent::DnnTextSegmenter>> nets;
     std::vector<agent::TextSegmenter*> segmenters;
     for (const auto& v : variants) {
-      nets.push_back(std::make_unique<agent::DnnTextSegmenter>(v.model, 0, size, v.selu));
+      nets.push_back(std::make_unique<agent::DnnTextSegmenter>(v.model, 0, size, v.layers));
       segmenters.push_back(nets.back().get());
     }
     std::vector<std::vector<double>> ms;  // per thread count, per variant
@@ -187,7 +189,7 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
     std::printf("\n%-24s %-30s %7s %7s %7s %7s\n", "set (512x256)", "variant", "images", "R %",
                 "P %", "IoU %");
     for (const auto& v : variants) {
-      agent::DnnTextSegmenter net(v.model, 2, cv::Size(512, 256), v.selu);
+      agent::DnnTextSegmenter net(v.model, 2, cv::Size(512, 256), v.layers);
       const auto s = sets[0].run(net);
       std::printf("%-24s %-30s %7zu %7.2f %7.2f %7.2f\n", sets[0].name.c_str(), v.label.c_str(),
                   s.images, 100 * s.recall, 100 * s.precision, 100 * s.iou);

@@ -4,6 +4,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/dnn.hpp>
 
+#include "keyfleet/agent/dnn_layers.hpp"
+
 #include <optional>
 #include <string>
 #include <vector>
@@ -35,20 +37,17 @@ SegmenterInfo read_segmenter_info(const std::string& model_path);
 // installed executables in <bin>/../share/keyfleet/models/. Throws StartupError if neither.
 std::string locate_model(const std::string& configured);
 
-// How OpenCV DNN computes the network's SELUs: its own layer (std::exp per element) or the
-// vectorised one of dnn_selu.hpp, the same function to float rounding; MiniNet's forward pass
-// takes about 0.75 times as long with it on one thread (`keyfleet segmenter eval` compares them).
-enum class DnnSelu { kOpenCv, kVectorised };
-
 class DnnTextSegmenter final : public TextSegmenter {
  public:
   // Loads and checks the model with one forward pass at its input size: a missing or corrupt
   // file, or a network that does not take that input or gives the wrong output shape, is a
   // StartupError naming the file.
   // `input_size` overrides the description's (for evaluations at other resolutions).
+  // `layers`: keyfleet's stand-ins for OpenCV's SELU and depthwise convolution (dnn_layers.hpp),
+  // the same outputs to float rounding; together MiniNet's forward pass at 512x256 on one thread
+  // takes about half as long (`keyfleet segmenter eval` compares them).
   DnnTextSegmenter(const std::string& model_path, int threads,
-                   std::optional<cv::Size> input_size = std::nullopt,
-                   DnnSelu selu = DnnSelu::kVectorised);
+                   std::optional<cv::Size> input_size = std::nullopt, DnnLayers layers = {});
   std::vector<cv::Mat> segment(const std::vector<cv::Mat>& bgr_frames) override;
   const SegmenterInfo& info() const override { return info_; }
 
