@@ -30,6 +30,7 @@ SegmenterInfo read_segmenter_info(const std::string& model_path) {
     info.mean_bgr = cv::Scalar(mean.at(0), mean.at(1), mean.at(2));
     info.classes = j.at("classes").get<std::vector<std::string>>();
     info.description = j.value("description", "");
+    info.gflops_512x256 = j.value("gflops_512x256", 0.0);
     for (const auto& name : j.at("target_classes")) {
       const auto it = std::find(info.classes.begin(), info.classes.end(), name.get<std::string>());
       if (it == info.classes.end())

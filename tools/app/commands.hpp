@@ -26,4 +26,5 @@ void add_vocabulary_commands(CLI::App& app);
 void add_experiment_commands(CLI::App& app);
 void add_eval_commands(CLI::App& app);
 void add_ocr_commands(CLI::App& app);
+void add_segmenter_commands(CLI::App& app);
 }  // namespace keyfleet::commands

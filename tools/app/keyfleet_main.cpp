@@ -11,7 +11,6 @@
 
 #include "commands.hpp"
 
-#include "keyfleet/agent/segmenter_eval.hpp"
 #include "keyfleet/agent/selection_eval.hpp"
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/process_tuning.hpp"
@@ -110,109 +109,6 @@ int run_selection_eval(const std::string& scenario_dir, const std::vector<std::s
   return 0;
 }
 
-struct SegmenterEvalOptions {
-  std::string model;
-  std::vector<std::string> compare;  // other exports of a model, timed and scored beside it
-  std::string generated;             // held-out image + mask pairs
-  std::string data = "../shared/data";
-  std::size_t max_images = 0;
-  int repetitions = 15;
-};
-
-int run_segmenter_eval(const SegmenterEvalOptions& o) {
-  namespace fs = std::filesystem;
-  const std::string model = agent::locate_model(o.model);
-  const auto info = agent::read_segmenter_info(model);
-  std::printf("model %s: %s\n", model.c_str(), info.description.c_str());
-  // Each model with OpenCV's layers, with the vectorised SELU only, and with both stand-ins
-  // (the default; agent/dnn_layers.hpp).
-  struct Variant {
-    std::string model, label;
-    agent::DnnLayers layers;
-  };
-  std::vector<Variant> variants;
-  for (std::size_t i = 0; i <= o.compare.size(); ++i) {
-    const std::string path = i ? agent::locate_model(o.compare[i - 1]) : model;
-    if (i) std::printf("compare %zu: %s\n", i, path.c_str());
-    const std::string name = i ? "compare " + std::to_string(i) : "model";
-    variants.push_back({path, name + ", OpenCV layers", agent::DnnLayers::opencv()});
-    variants.push_back({path, name + ", vectorised SELU", agent::DnnLayers{true, false}});
-    variants.push_back({path, name + ", SELU + depthwise", agent::DnnLayers{}});
-  }
-  const std::vector<cv::Size> sizes = {{512, 256}, {256, 128}, info.input_size};
-  std::printf("\nms per forward pass (median of %d, the variants taking turns)\n", o.repetitions);
-  std::printf("%-10s %-30s %9s %6s %9s %6s\n", "input", "variant", "1 thread", "ratio", "2 threads",
-              "ratio");
-  for (const auto& size : sizes) {
-    std::vector<std::unique_ptr<agent::DnnTextSegmenter>> nets;
-    std::vector<agent::TextSegmenter*> segmenters;
-    for (const auto& v : variants) {
-      nets.push_back(std::make_unique<agent::DnnTextSegmenter>(v.model, 0, size, v.layers));
-      segmenters.push_back(nets.back().get());
-    }
-    std::vector<std::vector<double>> ms;  // per thread count, per variant
-    for (int threads : {1, 2}) {
-      cv::setNumThreads(threads);
-      ms.push_back(agent::median_forward_ms(segmenters, o.repetitions));
-    }
-    for (std::size_t k = 0; k < variants.size(); ++k)
-      std::printf("%4dx%-5d %-30s %9.1f %6.2f %9.1f %6.2f\n", size.width, size.height,
-                  variants[k].label.c_str(), ms[0][k], ms[0][k] / ms[0][0], ms[1][k],
-                  ms[1][k] / ms[1][0]);
-  }
-  cv::setNumThreads(2);
-  struct Set {
-    std::string name;
-    std::function<agent::SegmentationScores(agent::TextSegmenter&)> run;
-    bool present;
-  };
-  const fs::path icdar = fs::path(o.data) / "icdar2015";
-  std::vector<Set> sets = {
-      {"generated (held out)",
-       [&](agent::TextSegmenter& s) {
-         return agent::evaluate_on_pairs(s, o.generated, o.max_images);
-       },
-       !o.generated.empty() && fs::is_directory(o.generated)},
-      {"icdar2015 train_sharp",
-       [&](agent::TextSegmenter& s) {
-         return agent::evaluate_on_icdar(s, (icdar / "train_sharp/images").string(),
-                                         (icdar / "train_sharp/gt").string(), o.max_images);
-       },
-       fs::is_directory(icdar / "train_sharp")},
-      {"icdar2015 test_blurred",
-       [&](agent::TextSegmenter& s) {
-         return agent::evaluate_on_icdar(s, (icdar / "test_blurred/images").string(),
-                                         (icdar / "test_blurred/gt").string(), o.max_images);
-       },
-       fs::is_directory(icdar / "test_blurred")}};
-  if (sets[0].present) {
-    std::printf("\n%-24s %-30s %7s %7s %7s %7s\n", "set (512x256)", "variant", "images", "R %",
-                "P %", "IoU %");
-    for (const auto& v : variants) {
-      agent::DnnTextSegmenter net(v.model, 2, cv::Size(512, 256), v.layers);
-      const auto s = sets[0].run(net);
-      std::printf("%-24s %-30s %7zu %7.2f %7.2f %7.2f\n", sets[0].name.c_str(), v.label.c_str(),
-                  s.images, 100 * s.recall, 100 * s.precision, 100 * s.iou);
-    }
-  }
-  std::printf("\n%-24s %-9s %7s %7s %7s %7s\n", "set (model)", "input", "images", "R %", "P %",
-              "IoU %");
-  for (const auto& set : sets) {
-    if (!set.present) {
-      std::printf("%-24s (not found: skipped)\n", set.name.c_str());
-      continue;
-    }
-    for (const auto& size : sizes) {
-      agent::DnnTextSegmenter net(model, 2, size);
-      const auto s = set.run(net);
-      std::printf("%-24s %4dx%-4d %7zu %7.2f %7.2f %7.2f\n", set.name.c_str(), size.width,
-                  size.height, s.images, 100 * s.recall, 100 * s.precision, 100 * s.iou);
-    }
-  }
-  std::printf("\nThe paper's MiniNet on COCO-Text: R 52.61, P 36.69, IoU 27.63.\n");
-  return 0;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -284,21 +180,7 @@ int main(int argc, char** argv) {
   evaluate->add_option("--model", eval_model, "ONNX text segmenter for semantic and full")
       ->check(CLI::ExistingFile);
 
-  auto* segmenter = app.add_subcommand("segmenter", "the agent's text segmenter");
-  segmenter->require_subcommand(1);
-  auto* segmenter_eval =
-      segmenter->add_subcommand("eval", "accuracy and CPU time, like the first seed's Table III");
-  SegmenterEvalOptions seg;
-  seg.model = "mininet_text.onnx";
-  segmenter_eval->add_option("--model", seg.model, "ONNX model with its .json");
-  segmenter_eval->add_option("--compare", seg.compare,
-                             "other exports (with their .json) timed and scored beside it");
-  segmenter_eval->add_option("--generated", seg.generated,
-                             "held-out pairs from keyfleet scenario training");
-  segmenter_eval->add_option("--data", seg.data, "the shared data folder (ICDAR photos)");
-  segmenter_eval->add_option("--max-images", seg.max_images, "per set; 0 = all");
-  segmenter_eval->add_option("--repetitions", seg.repetitions, "timed forward passes");
-
+  keyfleet::commands::add_segmenter_commands(app);
   keyfleet::commands::add_station_commands(app);
   keyfleet::commands::add_ocr_commands(app);
   keyfleet::commands::add_vocabulary_commands(app);
@@ -311,7 +193,6 @@ int main(int argc, char** argv) {
     if (*generate) return run_scenario_generate(scenario_config, out, threads);
     if (*training) return run_scenario_training(scenario_config, out, count, training_seed);
     if (*montage) return run_scenario_montage(scenario_dir, out, montage_options);
-    if (*segmenter_eval) return run_segmenter_eval(seg);
     if (*evaluate)
       return run_selection_eval(scenario_dir, eval_drones, eval_agent_config, eval_model);
   } catch (const std::exception& e) {

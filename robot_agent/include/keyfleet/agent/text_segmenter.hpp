@@ -20,6 +20,7 @@ struct SegmenterInfo {
   std::vector<std::string> classes;
   std::vector<int> target_classes;  // indices into classes: what counts as "text"
   std::string description;
+  double gflops_512x256 = 0;  // the network's cost at 512x256 (0 = not given)
 };
 
 class TextSegmenter {

@@ -1,0 +1,188 @@
+// `keyfleet segmenter eval`: the agent's text segmenter measured like the first seed's Table III
+// (recall, precision and IoU of the text class, GFLOPs, CPU ms on 1 and 2 threads) at several
+// input sizes, and the inference variants of agent/dnn_layers.hpp timed side by side.
+#include <opencv2/core.hpp>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "commands.hpp"
+#include "keyfleet/agent/segmenter_eval.hpp"
+#include "keyfleet/common/error.hpp"
+
+namespace keyfleet::commands {
+namespace {
+
+namespace fs = std::filesystem;
+
+// models/mininet/train.py trains on ICDAR 2015 test_blurred after its first 100 photos
+// (img_101..200 in name order): only those 100 are held out for this evaluation.
+constexpr std::size_t kBlurredHeldOut = 100;
+
+struct SegmenterEvalOptions {
+  std::string model = "mininet_text.onnx";
+  std::vector<std::string> compare;  // other exports of a model, timed and scored beside it
+  std::string generated;             // held-out image + mask pairs
+  std::string data = "../shared/data";
+  std::size_t max_images = 0;
+  int repetitions = 15;
+  std::vector<std::string> sizes = {"512x256", "256x128", "512x384", "320x256", "256x192"};
+};
+
+cv::Size parse_size(const std::string& text, int multiple) {
+  int w = 0, h = 0;
+  char x = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d", &w, &x, &h) != 3 || x != 'x' || w <= 0 || h <= 0)
+    throw StartupError("segmenter eval: size '" + text + "' is not WIDTHxHEIGHT");
+  if (w % multiple || h % multiple)
+    throw StartupError("segmenter eval: size " + text + " is not a multiple of " +
+                       std::to_string(multiple) + " (the model's size_multiple)");
+  return {w, h};
+}
+
+struct Variant {
+  std::string model, label;
+  agent::DnnLayers layers;
+};
+
+// Each model with OpenCV's layers, with the vectorised SELU only, and with both stand-ins (the
+// default), timed taking turns so that a noisy machine hits them alike.
+void print_variant_timings(const std::vector<Variant>& variants, const std::vector<cv::Size>& sizes,
+                           int repetitions) {
+  std::printf("\nms per forward pass (median of %d, the variants taking turns)\n", repetitions);
+  std::printf("%-10s %-30s %9s %6s %9s %6s\n", "input", "variant", "1 thread", "ratio", "2 threads",
+              "ratio");
+  for (const auto& size : sizes) {
+    std::vector<std::unique_ptr<agent::DnnTextSegmenter>> nets;
+    std::vector<agent::TextSegmenter*> segmenters;
+    for (const auto& v : variants) {
+      nets.push_back(std::make_unique<agent::DnnTextSegmenter>(v.model, 0, size, v.layers));
+      segmenters.push_back(nets.back().get());
+    }
+    std::vector<std::vector<double>> ms;  // per thread count, per variant
+    for (int threads : {1, 2}) {
+      cv::setNumThreads(threads);
+      ms.push_back(agent::median_forward_ms(segmenters, repetitions));
+    }
+    for (std::size_t k = 0; k < variants.size(); ++k)
+      std::printf("%4dx%-5d %-30s %9.1f %6.2f %9.1f %6.2f\n", size.width, size.height,
+                  variants[k].label.c_str(), ms[0][k], ms[0][k] / ms[0][0], ms[1][k],
+                  ms[1][k] / ms[1][0]);
+  }
+}
+
+struct Set {
+  std::string name;
+  std::function<agent::SegmentationScores(agent::TextSegmenter&)> run;
+  bool present;
+};
+
+std::vector<Set> evaluation_sets(const SegmenterEvalOptions& o) {
+  const fs::path icdar = fs::path(o.data) / "icdar2015";
+  const std::size_t blurred =
+      o.max_images ? std::min(o.max_images, kBlurredHeldOut) : kBlurredHeldOut;
+  return {{"generated (held out)",
+           [&o](agent::TextSegmenter& s) {
+             return agent::evaluate_on_pairs(s, o.generated, o.max_images);
+           },
+           !o.generated.empty() && fs::is_directory(o.generated)},
+          {"icdar2015 train_sharp",
+           [&o, icdar](agent::TextSegmenter& s) {
+             return agent::evaluate_on_icdar(s, (icdar / "train_sharp/images").string(),
+                                             (icdar / "train_sharp/gt").string(), o.max_images);
+           },
+           fs::is_directory(icdar / "train_sharp")},
+          {"icdar2015 test_blurred",
+           [icdar, blurred](agent::TextSegmenter& s) {
+             return agent::evaluate_on_icdar(s, (icdar / "test_blurred/images").string(),
+                                             (icdar / "test_blurred/gt").string(), blurred);
+           },
+           fs::is_directory(icdar / "test_blurred")}};
+}
+
+int run_segmenter_eval(const SegmenterEvalOptions& o) {
+  const std::string model = agent::locate_model(o.model);
+  const auto info = agent::read_segmenter_info(model);
+  std::printf("model %s: %s\n", model.c_str(), info.description.c_str());
+  std::vector<cv::Size> sizes;
+  for (const auto& text : o.sizes) sizes.push_back(parse_size(text, info.size_multiple));
+
+  std::vector<Variant> variants;
+  for (std::size_t i = 0; i <= o.compare.size(); ++i) {
+    const std::string path = i ? agent::locate_model(o.compare[i - 1]) : model;
+    if (i) std::printf("compare %zu: %s\n", i, path.c_str());
+    const std::string name = i ? "compare " + std::to_string(i) : "model";
+    variants.push_back({path, name + ", OpenCV layers", agent::DnnLayers::opencv()});
+    variants.push_back({path, name + ", vectorised SELU", agent::DnnLayers{true, false}});
+    variants.push_back({path, name + ", SELU + depthwise", agent::DnnLayers{}});
+  }
+  print_variant_timings(variants, sizes, o.repetitions);
+
+  const auto sets = evaluation_sets(o);
+  if (sets[0].present && variants.size() > 1) {
+    std::printf("\n%-24s %-30s %7s %7s %7s %7s\n", "set (512x256)", "variant", "images", "R %",
+                "P %", "IoU %");
+    for (const auto& v : variants) {
+      agent::DnnTextSegmenter net(v.model, 2, cv::Size(512, 256), v.layers);
+      const auto s = sets[0].run(net);
+      std::printf("%-24s %-30s %7zu %7.2f %7.2f %7.2f\n", sets[0].name.c_str(), v.label.c_str(),
+                  s.images, 100 * s.recall, 100 * s.precision, 100 * s.iou);
+    }
+  }
+
+  // Table III: the default inference path, per input size. FLOPs of a fully convolutional
+  // network grow with the pixel count.
+  std::printf("\nTable III (default layers; ms: median of %d forward passes)\n", o.repetitions);
+  std::printf("%-24s %-9s %7s %7s %7s %7s %7s %8s %8s\n", "set", "input", "images", "R %", "P %",
+              "IoU %", "GFLOPs", "ms 1 thr", "ms 2 thr");
+  for (const auto& size : sizes) {
+    agent::DnnTextSegmenter net(model, 0, size);
+    std::vector<agent::TextSegmenter*> one = {&net};
+    cv::setNumThreads(1);
+    const double ms1 = agent::median_forward_ms(one, o.repetitions).at(0);
+    cv::setNumThreads(2);
+    const double ms2 = agent::median_forward_ms(one, o.repetitions).at(0);
+    const double gflops = info.gflops_512x256 * size.area() / (512.0 * 256.0);
+    for (const auto& set : sets) {
+      if (!set.present) continue;
+      const auto s = set.run(net);
+      std::printf("%-24s %4dx%-4d %7zu %7.2f %7.2f %7.2f %7.3f %8.1f %8.1f\n", set.name.c_str(),
+                  size.width, size.height, s.images, 100 * s.recall, 100 * s.precision, 100 * s.iou,
+                  gflops, ms1, ms2);
+    }
+  }
+  for (const auto& set : sets)
+    if (!set.present) std::printf("%-24s (not found: skipped)\n", set.name.c_str());
+  std::printf(
+      "\nThe paper's MiniNet on COCO-Text: R 52.61, P 36.69, IoU 27.63, 1.06 GFLOPs, "
+      "18 ms (i5-8600k).\n");
+  return 0;
+}
+
+}  // namespace
+
+void add_segmenter_commands(CLI::App& app) {
+  auto* segmenter = app.add_subcommand("segmenter", "the agent's text segmenter");
+  segmenter->require_subcommand(1);
+  auto* eval =
+      segmenter->add_subcommand("eval", "accuracy and CPU time, like the first seed's Table III");
+  auto o = std::make_shared<SegmenterEvalOptions>();
+  eval->add_option("--model", o->model, "ONNX model with its .json");
+  eval->add_option("--compare", o->compare,
+                   "other exports (with their .json) timed and scored beside it");
+  eval->add_option("--generated", o->generated, "held-out pairs from keyfleet scenario training");
+  eval->add_option("--data", o->data, "the shared data folder (ICDAR photos)");
+  eval->add_option("--max-images", o->max_images,
+                   "per set; 0 = all (test_blurred: at most its first 100, the held-out ones)");
+  eval->add_option("--repetitions", o->repetitions, "timed forward passes")
+      ->check(CLI::Range(1, 10000));
+  eval->add_option("--sizes", o->sizes, "input sizes WIDTHxHEIGHT")->capture_default_str();
+  eval->callback([o] { run_reporting([&] { run_segmenter_eval(*o); }); });
+}
+
+}  // namespace keyfleet::commands
