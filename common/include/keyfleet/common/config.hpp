@@ -70,8 +70,8 @@ struct QualityConfig {
   int size = 112;               // blur and brightness are measured at size x size
   int sharpness_width = 320;    // the sharpness is measured at this width
   double sharpness_gate = 0.5;  // frames below it are not candidates (second seed)
-  double edge_contrast = 12;    // Kumar sharpness: summed first differences of an edge
-  double sharp_ratio = 0.45;    // Kumar sharpness: ratio that makes an edge sharp
+  double edge_contrast = 180;   // Kumar sharpness: summed first differences of an edge
+  double sharp_ratio = 0.8;     // Kumar sharpness: ratio that makes an edge sharp
 };
 
 struct SemanticConfig {
