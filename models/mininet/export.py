@@ -9,7 +9,8 @@
   sums: OpenCV 4.6's own depthwise layer is faster on 3x3 kernels, and the whole forward pass takes
   about 0.85 times as long; the agent's stand-in depthwise layer skips the zero taps, so it gains
   little there; --plain-graph keeps them as exported);
-- stores the weights as float16 when --fp16 (OpenCV converts them back on load);
+- stores the weights as float16 when --fp16 (smaller, but OpenCV 4.6 refuses FLOAT16
+  initialisers: the shipped model is float32);
 - runs OpenCV DNN and PyTorch on fixed inputs and fails if they differ by more than --tolerance;
 - writes the JSON description beside the model (what the agent's TextSegmenter reads).
 """

@@ -120,12 +120,11 @@ SignImage paint_sign(const std::string& word, const TextureLibrary& library, std
   SignImage sign{cv::Mat(size, CV_8UC3, board), {}, {}};
   const cv::Point origin(pad_x, pad_y + text.height);
   font.putText(sign.texture, word, origin, text_height, ink, -1, cv::LINE_AA, true);
-  cv::Mat ink_mask = cv::Mat::zeros(size, CV_8UC3);  // FreeType2 draws on 3 channels only
-  font.putText(ink_mask, word, origin, text_height, cv::Scalar::all(255), -1, cv::LINE_AA, true);
-  cv::cvtColor(ink_mask, sign.mask, cv::COLOR_BGR2GRAY);
-  sign.mask = sign.mask > 127;
   cv::rectangle(sign.texture, cv::Rect({0, 0}, size), ink * 0.5 + board * 0.5, 3);
   sign.word_box = cv::Rect(pad_x, pad_y, text.width, text.height + baseline);
+  // The word's box, not its glyphs: text regions, as ICDAR and COCO-Text annotate them.
+  sign.mask = cv::Mat::zeros(size, CV_8UC1);
+  sign.mask(sign.word_box).setTo(255);
   return sign;
 }
 

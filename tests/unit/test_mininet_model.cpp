@@ -55,9 +55,9 @@ TEST(ShippedMiniNet, ReproducesTheReferenceRecordedAtExport) {
   EXPECT_NEAR(text, expected, 0.002 * size.area()) << "recorded " << expected;
 }
 
-// Floors from the shipped model's own figures on these views (recall 0.49, precision 0.09
-// when recorded): it finds about half the text pixels and marks many false ones; a model
-// that regresses below the floors fails.
+// Floors about 0.1 below the shipped model's own figures on these views at its input size
+// (recall 0.63, precision 0.32, IoU 0.27 when recorded, word boxes as truth): a model that
+// regresses below them fails.
 TEST(ShippedMiniNet, FindsTextPixelsOfGeneratedViewsAboveStatedFloors) {
   test::TempDir dir;
   ScenarioConfig config;
@@ -67,8 +67,9 @@ TEST(ShippedMiniNet, FindsTextPixelsOfGeneratedViewsAboveStatedFloors) {
   DnnTextSegmenter net(locate_model(kShipped), 2);
   const SegmentationScores s = evaluate_on_pairs(net, dir.path().string(), 0);
   EXPECT_EQ(s.images, 12u);
-  EXPECT_GT(s.recall, 0.35) << "precision " << s.precision << ", IoU " << s.iou;
-  EXPECT_GT(s.precision, 0.05) << "recall " << s.recall << ", IoU " << s.iou;
+  EXPECT_GT(s.recall, 0.50) << "precision " << s.precision << ", IoU " << s.iou;
+  EXPECT_GT(s.precision, 0.22) << "recall " << s.recall << ", IoU " << s.iou;
+  EXPECT_GT(s.iou, 0.17) << "recall " << s.recall << ", precision " << s.precision;
 }
 
 // keyfleet's stand-ins for OpenCV's layers (the default) against OpenCV's own on the shipped

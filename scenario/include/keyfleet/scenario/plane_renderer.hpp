@@ -19,7 +19,7 @@ struct CameraPose {
 struct RenderedView {
   cv::Mat radiance;   // CV_32FC3, linear scene brightness (0..~255 at unit lighting)
   cv::Mat plane_id;   // CV_32SC1, -1 = sky
-  cv::Mat text_mask;  // CV_8UC1, 255 where a text pixel of the nearest plane is seen
+  cv::Mat text_mask;  // CV_8UC1, 255 inside a word box of the nearest plane
 };
 
 // Renders textured planes with a z-buffer: each plane is warped by its homography into

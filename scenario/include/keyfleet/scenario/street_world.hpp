@@ -23,7 +23,7 @@ struct TexturedPlane {
   double height_m = 1;
   cv::Mat texture;         // BGR 8UC3
   cv::Mat alpha;           // 8UC1, empty = opaque; below 128 = see-through
-  cv::Mat text_mask;       // 8UC1, empty = no text; 255 on text pixels
+  cv::Mat text_mask;       // 8UC1, empty = no text; 255 inside word boxes
   int lighting_group = 0;  // which per-day lighting factor applies
 
   Eigen::Vector3d at(double s, double t) const;    // world point of texture pixel (s, t)

@@ -42,9 +42,10 @@ struct TextReaderParams {
   // Images whose longer side is above this are downscaled to it (pixels, 0 = never).
   int max_long_side = 0;
   // Detector (mininet+tesseract): the segmenter model and its input width (pixels, multiple
-  // of 64; height keeps the image's aspect ratio).
+  // of 64; height keeps the image's aspect ratio). MiniNet is trained on text at 0.4-1x of
+  // 640-px street views: 512 keeps keyframes (0.8x) and 1280-px photos (0.4x) inside that range.
   std::string segmenter_model = "mininet_text.onnx";
-  int segmenter_width = 1024;
+  int segmenter_width = 512;
   int threads = 1;              // OpenCV DNN threads for the segmenter
   float region_padding = 0.3f;  // each side, as a fraction of the region's height
   int region_line_height = 48;  // pixels a region's crop is scaled to before reading
