@@ -50,7 +50,7 @@ fi
 /usr/bin/python3 "$root/models/mininet/train.py" --data "$work/pairs" --work "$work/train" \
   --steps "$steps" "${real_photos[@]}"
 /usr/bin/python3 "$root/models/mininet/export.py" --checkpoint "$work/train/latest.pt" \
-  --out "$root/models/mininet/mininet_text.onnx" \
+  --out "$root/models/mininet/mininet_text.onnx" --input-width 320 --input-height 256 \
   --training-data "$trained_on, $steps steps"
 "$keyfleet" segmenter eval --model "$root/models/mininet/mininet_text.onnx" \
   --generated "$work/heldout" --data "$data_root"

@@ -18,6 +18,12 @@
 namespace keyfleet::commands {
 namespace {
 
+std::string join_widths(const std::vector<int>& widths) {
+  std::string out;
+  for (int w : widths) out += (out.empty() ? "" : ", ") + std::to_string(w);
+  return out;
+}
+
 namespace fs = std::filesystem;
 
 struct OcrOptions {
@@ -50,9 +56,9 @@ void run_eval(const OcrOptions& o) {
   const bool with_blurred = o.max_images > 0 && fs::is_directory(blurred);
   std::printf(
       "min confidence %.2f, min word length %d, min long side %d px, thresholding %d, "
-      "segmenter width %d\n",
+      "segmenter widths %s\n",
       double(o.params.min_confidence), o.params.min_word_length, o.params.min_long_side,
-      o.params.thresholding_method, o.params.segmenter_width);
+      o.params.thresholding_method, join_widths(o.params.segmenter_widths).c_str());
   std::printf(
       "end-to-end: ICDAR 2015 protocol (polygon IoU >= 0.5, case-insensitive text, ### "
       "ignored); words: exact, case-insensitive\n\n");
@@ -102,8 +108,8 @@ void add_reader_options(CLI::App& command, OcrOptions& o) {
   command.add_option("--min-word-height", o.params.min_word_height, "drop lower words (px)");
   command.add_option("--min-long-side", o.params.min_long_side,
                      "upscale smaller images to this longer side (px, 0 = never)");
-  command.add_option("--segmenter-width", o.params.segmenter_width,
-                     "MiniNet input width for mininet+tesseract (multiple of 64)");
+  command.add_option("--segmenter-width", o.params.segmenter_widths,
+                     "MiniNet input widths for mininet+tesseract (multiples of 64)");
   command.add_option("--line-height", o.params.region_line_height,
                      "px a word crop or detected line is scaled to before reading");
   command.add_option("--thresholding", o.params.thresholding_method,

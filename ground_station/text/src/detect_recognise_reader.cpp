@@ -35,15 +35,17 @@ DetectRecogniseReader::DetectRecogniseReader(const TextReaderParams& params)
     : params_(params),
       model_path_(agent::locate_model(params.segmenter_model)),
       ocr_(params.tessdata_dir, params.language, params.thresholding_method) {
-  if (params.segmenter_width < 64 || params.segmenter_width % 64 != 0)
-    throw StartupError("text reader: segmenter_width " + std::to_string(params.segmenter_width) +
-                       " is not a positive multiple of 64");
+  if (params.segmenter_widths.empty())
+    throw StartupError("text reader: no segmenter widths for mininet+tesseract");
+  for (int w : params.segmenter_widths)
+    if (w < 64 || w % 64 != 0)
+      throw StartupError("text reader: segmenter width " + std::to_string(w) +
+                         " is not a positive multiple of 64");
   // Loads and checks the model now (16:9, the ICDAR photos' shape) so a bad one fails here.
-  segmenter_for(cv::Size(16, 9));
+  for (int w : params.segmenter_widths) segmenter_for(w, cv::Size(16, 9));
 }
 
-agent::DnnTextSegmenter& DetectRecogniseReader::segmenter_for(cv::Size image_size) {
-  const int w = params_.segmenter_width;
+agent::DnnTextSegmenter& DetectRecogniseReader::segmenter_for(int w, cv::Size image_size) {
   const int h = round_up_64(double(w) * image_size.height / std::max(1, image_size.width));
   auto& slot = segmenters_[{w, h}];
   if (!slot)
@@ -53,9 +55,22 @@ agent::DnnTextSegmenter& DetectRecogniseReader::segmenter_for(cv::Size image_siz
 
 std::vector<cv::Rect> DetectRecogniseReader::regions(const cv::Mat& bgr) {
   if (bgr.empty() || bgr.type() != CV_8UC3 || bgr.cols < 8 || bgr.rows < 8) return {};
+  std::vector<cv::Rect> boxes;
+  for (int w : params_.segmenter_widths) {
+    auto at = regions_at(w, bgr);
+    boxes.insert(boxes.end(), at.begin(), at.end());
+  }
+  boxes = merge_overlapping(std::move(boxes));
+  std::sort(boxes.begin(), boxes.end(),
+            [](const cv::Rect& a, const cv::Rect& b) { return a.area() > b.area(); });
+  if (int(boxes.size()) > params_.max_regions) boxes.resize(std::size_t(params_.max_regions));
+  return boxes;
+}
+
+std::vector<cv::Rect> DetectRecogniseReader::regions_at(int width, const cv::Mat& bgr) {
   cv::Mat mask;
   try {
-    mask = segmenter_for(bgr.size()).segment({bgr}).at(0);
+    mask = segmenter_for(width, bgr.size()).segment({bgr}).at(0);
   } catch (const std::exception&) {
     return {};  // a per-keyframe path: no regions rather than an exception
   }
@@ -76,10 +91,6 @@ std::vector<cv::Rect> DetectRecogniseReader::regions(const cv::Mat& bgr) {
     const int pad = int(std::ceil(params_.region_padding * h)) + 2;
     boxes.push_back(cv::Rect(x - pad, y - pad, w + 2 * pad, h + 2 * pad) & bounds);
   }
-  boxes = merge_overlapping(std::move(boxes));
-  std::sort(boxes.begin(), boxes.end(),
-            [](const cv::Rect& a, const cv::Rect& b) { return a.area() > b.area(); });
-  if (int(boxes.size()) > params_.max_regions) boxes.resize(std::size_t(params_.max_regions));
   return boxes;
 }
 

@@ -22,9 +22,9 @@ class TesseractReader final : public TextReader {
   TesseractOcr ocr_;
 };
 
-// MiniNet marks text pixels at a higher resolution than the robot uses; connected
-// components of the mask, joined along lines and padded, are read one by one by Tesseract
-// as single lines.
+// MiniNet marks text pixels at one or more input widths (a small pyramid: the network finds
+// text of a limited range of heights); connected components of each mask, joined along lines,
+// padded and merged across widths, are read one by one by Tesseract as single lines.
 class DetectRecogniseReader final : public TextReader {
  public:
   explicit DetectRecogniseReader(const TextReaderParams& params);
@@ -35,7 +35,8 @@ class DetectRecogniseReader final : public TextReader {
   std::vector<cv::Rect> regions(const cv::Mat& bgr);
 
  private:
-  agent::DnnTextSegmenter& segmenter_for(cv::Size image_size);
+  agent::DnnTextSegmenter& segmenter_for(int width, cv::Size image_size);
+  std::vector<cv::Rect> regions_at(int width, const cv::Mat& bgr);
 
   TextReaderParams params_;
   std::string model_path_;
