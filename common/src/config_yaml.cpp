@@ -95,6 +95,13 @@ Check<std::string> robot_id_check() {
     return is_valid_robot_id(v) ? std::string() : std::string("must match [A-Za-z0-9_-]{1,32}");
   };
 }
+// A name that becomes part of a file or folder name: [A-Za-z0-9_.-]{1,max_length}.
+Check<std::string> file_name_check(int max_length) {
+  const std::string pattern = "[A-Za-z0-9_.-]{1," + std::to_string(max_length) + "}";
+  return [pattern](const std::string& v) {
+    return std::regex_match(v, std::regex(pattern)) ? std::string() : "must match " + pattern;
+  };
+}
 const std::set<std::string> kLogLevels = {"trace", "debug", "info", "warn", "error"};
 
 template <class T>
@@ -401,8 +408,7 @@ void visit(V& v, PlaceRecognitionConfig& c) {
   v.field("candidates", c.candidates, between(1, 100));
   v.field("min_inliers", c.min_inliers, between(4, 100000));
   v.field("min_inlier_ratio", c.min_inlier_ratio, between(0.0, 1.0));
-  v.field("verifier", c.verifier,
-          one_of({"vfc", "ransac_homography", "ransac_fundamental"}));
+  v.field("verifier", c.verifier, one_of({"vfc", "ransac_homography", "ransac_fundamental"}));
   v.field("same_robot_exclusion_s", c.same_robot_exclusion_s, between(0.0, 1e6));
 }
 
@@ -428,11 +434,7 @@ void visit(V& v, StationConfig& c) {
 
 template <class V>
 void visit(V& v, MissionConfig& c) {
-  v.field("name", c.name, Check<std::string>([](const std::string& s) {
-            return std::regex_match(s, std::regex("[A-Za-z0-9_.-]{1,64}"))
-                       ? std::string()
-                       : std::string("must match [A-Za-z0-9_.-]{1,64}");
-          }));
+  v.field("name", c.name, file_name_check(64));
   v.field("drones", c.drones, between(1, 64));
   v.field("robot_id_prefix", c.robot_id_prefix);
   v.field("run_root", c.run_root);
@@ -507,11 +509,7 @@ void visit(V& v, CameraEffectsConfig& c) {
 
 template <class V>
 void visit(V& v, ScenarioConfig& c) {
-  v.field("name", c.name, Check<std::string>([](const std::string& s) {
-            return std::regex_match(s, std::regex("[A-Za-z0-9_.-]{1,64}"))
-                       ? std::string()
-                       : std::string("must match [A-Za-z0-9_.-]{1,64}");
-          }));
+  v.field("name", c.name, file_name_check(64));
   v.field("seed", c.seed);
   v.field("frames_per_drone", c.frames_per_drone, at_least<std::uint64_t>(1));
   v.field("fps", c.fps, between(0.1, 1000.0));
@@ -553,11 +551,7 @@ void visit(V& v, EvalConfig& c) {
 
 template <class V>
 void visit(V& v, LinkProfileConfig& c) {
-  v.field("name", c.name, Check<std::string>([](const std::string& s) {
-            return std::regex_match(s, std::regex("[A-Za-z0-9_.-]{1,32}"))
-                       ? std::string()
-                       : std::string("must match [A-Za-z0-9_.-]{1,32}");
-          }));
+  v.field("name", c.name, file_name_check(32));
   v.field("rate_kbit_s", c.rate_kbit_s, between(0.0, 1e7));
   v.field("delay_ms", c.delay_ms, between(0.0, 10000.0));
   v.field("loss_percent", c.loss_percent, between(0.0, 100.0));
