@@ -3,9 +3,7 @@
 
 #include <cstdio>
 #include <filesystem>
-#include <functional>
 #include <iostream>
-#include <memory>
 #include <optional>
 #include <vector>
 
