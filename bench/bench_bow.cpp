@@ -12,10 +12,11 @@
 
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 #include "keyfleet/scenario/scenario_generator.hpp"
-#include "keyfleet/station/bow_database.hpp"
-#include "keyfleet/station/orb_extractor.hpp"
-#include "keyfleet/station/orb_vocabulary.hpp"
+#include "keyfleet/station/places/bow_database.hpp"
+#include "keyfleet/station/places/orb_extractor.hpp"
+#include "keyfleet/station/places/orb_vocabulary.hpp"
 
 namespace {
 

@@ -9,6 +9,7 @@
 #include "keyfleet/common/process_tuning.hpp"
 #include "keyfleet/scenario/camera_effects.hpp"
 #include "keyfleet/scenario/flight.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 #include "keyfleet/scenario/scenario_generator.hpp"
 
 namespace {

@@ -8,7 +8,8 @@
 #include <cstdlib>
 #include <string>
 
-#include "keyfleet/agent/text_segmenter.hpp"
+#include "keyfleet/vision/model_files.hpp"
+#include "keyfleet/vision/text_segmenter.hpp"
 
 namespace {
 
@@ -16,16 +17,16 @@ using namespace keyfleet;
 
 std::string model() {
   const char* env = std::getenv("KEYFLEET_SEGMENTER_MODEL");
-  return agent::locate_model(env && *env ? env : "mininet_text.onnx");
+  return vision::locate_model(env && *env ? env : "mininet_text.onnx", "segmenter model");
 }
 
 // Args: layers (0 = OpenCV's, 1 = vectorised SELU, 2 = SELU + depthwise), threads, input height
 // (width 512).
 void BM_Segment(benchmark::State& state) {
-  const agent::DnnLayers layers{state.range(0) >= 1, state.range(0) >= 2};
+  const vision::DnnLayers layers{state.range(0) >= 1, state.range(0) >= 2};
   const int threads = int(state.range(1));
   const cv::Size size(512, int(state.range(2)));
-  agent::DnnTextSegmenter net(model(), threads, size, layers);
+  vision::DnnTextSegmenter net(model(), threads, size, layers);
   const cv::Mat frame(size, CV_8UC3, cv::Scalar(90, 120, 150));
   net.segment({frame});  // warm-up
   for (auto _ : state) benchmark::DoNotOptimize(net.segment({frame}));

@@ -1,8 +1,8 @@
-// The agent's per-frame selection cost on 640x480 frames, stage by stage, like the first
-// seed's breakdown (resize, blur, brightness, sharpness, trigger, semantic), and amortised
-// over a generated flight. The quality stages run both as they were before the fused
+// The agent's per-frame selection cost on 640x480 frames, stage by stage, like Alonso et
+// al.'s (ICRA 2019) breakdown (resize, blur, brightness, sharpness, trigger, semantic), and
+// amortised over a generated flight. The quality stages run both as they were before the fused
 // implementation and as they are now, and a table at the end puts them side by side with
-// the per-frame total (issue 4's target: under 1 ms on one core). Prints figures; never
+// the per-frame total (the goal: under 1 ms on one core). Prints figures; never
 // pass/fail.
 //   build/bin/bench_selection [--benchmark_repetitions=5 --benchmark_report_aggregates_only=true]
 //   build/bin/bench_selection --benchmark_filter=quality/ --benchmark_repetitions=9
@@ -17,11 +17,12 @@
 #include <vector>
 
 #include "keyfleet/agent/image_quality.hpp"
-#include "keyfleet/agent/image_quality_reference.hpp"
 #include "keyfleet/agent/keyframe_selector.hpp"
 #include "keyfleet/agent/keyframe_trigger.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/process_tuning.hpp"
+#include "keyfleet/eval/image_quality_reference.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 #include "keyfleet/scenario/scenario_generator.hpp"
 
 namespace {
@@ -62,9 +63,9 @@ const cv::Mat& frame(std::size_t i) { return flight().frames[i % flight().frames
 // images, image_quality_reference.hpp, fresh temporaries every frame): the baseline.
 namespace before {
 
-using agent::reference::brightness_score;
-using agent::reference::energy_of_laplacian;
-using agent::reference::kumar_sharpness;
+using eval::reference::brightness_score;
+using eval::reference::energy_of_laplacian;
+using eval::reference::kumar_sharpness;
 
 struct Images {
   cv::Mat work, small, grey, work_grey;

@@ -13,6 +13,7 @@
 #include "keyfleet/common/image_codec.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/process_tuning.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 #include "keyfleet/scenario/scenario_generator.hpp"
 #include "keyfleet/station/analysis_pool.hpp"
 #include "keyfleet/station/analysis_setup.hpp"

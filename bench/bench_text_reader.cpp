@@ -9,7 +9,7 @@
 #include <filesystem>
 #include <string>
 
-#include "keyfleet/station/text_reader.hpp"
+#include "keyfleet/station/text/text_reader.hpp"
 
 namespace {
 
@@ -28,7 +28,7 @@ cv::Mat keyframe() {
 }
 
 void read_keyframe(benchmark::State& state, const std::string& engine) {
-  keyfleet::station::TextReaderParams params;
+  keyfleet::TextReadingConfig params;
   params.engine = engine;
   const auto reader = keyfleet::station::make_text_reader(params);
   const cv::Mat image = keyframe();

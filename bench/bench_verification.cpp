@@ -12,8 +12,8 @@
 #include <random>
 #include <vector>
 
-#include "keyfleet/station/match_verifier.hpp"
-#include "keyfleet/station/vfc.hpp"
+#include "keyfleet/station/geometry/match_verifier.hpp"
+#include "keyfleet/station/geometry/vfc.hpp"
 
 namespace {
 

@@ -5,11 +5,11 @@
 #include <fstream>
 #include <iostream>
 
+#include "keyfleet/cli/process_options.hpp"
 #include "keyfleet/common/clock.hpp"
-#include "keyfleet/common/dds_transport.hpp"
-#include "keyfleet/common/process_options.hpp"
 #include "keyfleet/common/process_tuning.hpp"
 #include "keyfleet/common/shutdown_signal.hpp"
+#include "keyfleet/dds/dds_transport.hpp"
 #include "keyfleet/station/analysis_exports.hpp"
 #include "keyfleet/station/analysis_setup.hpp"
 #include "keyfleet/station/bandwidth_report.hpp"

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <mutex>
 
-#include "keyfleet/station/bow_matching.hpp"
+#include "keyfleet/station/places/bow_matching.hpp"
 
 namespace keyfleet::station {
 

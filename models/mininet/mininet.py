@@ -1,5 +1,5 @@
-"""MiniNet (Alonso, Riazuelo, Murillo, ICRA 2019), the 2019 code's layout as DESIGN.md §2.3
-gives it: SELU separable convolutions, factorised dilated modules, six stride-2 downsamplings,
+"""MiniNet (Alonso, Riazuelo, Murillo, ICRA 2019), the layout of the 2019 code (not
+the later network of its public repository, which has batch norm and ReLU): SELU separable convolutions, factorised dilated modules, six stride-2 downsamplings,
 transposed-convolution upsampling with skip concatenations. Input BGR/255 - 0.5, H and W
 multiples of 64; output: per-class logits at the input resolution.
 

@@ -5,10 +5,10 @@
 #include <iostream>
 
 #include "keyfleet/agent/agent_runner.hpp"
+#include "keyfleet/cli/process_options.hpp"
 #include "keyfleet/common/config_error.hpp"
-#include "keyfleet/common/dds_transport.hpp"
-#include "keyfleet/common/process_options.hpp"
 #include "keyfleet/common/process_tuning.hpp"
+#include "keyfleet/dds/dds_transport.hpp"
 
 namespace {
 
@@ -38,7 +38,7 @@ int run(const ProcessOptions& options, const std::string& robot_id) {
   if (outbox.pending() > 0)
     logger->info("outbox {} holds {} unacknowledged keyframe(s) from an earlier run", outbox.path(),
                  outbox.pending());
-  StageClock clock;
+  agent::StageClock clock;
   auto selector = agent::make_selector(config.selector, source->fps(), &clock);
   auto link = make_dds_agent_link(config.dds, logger);
   agent::KeyframeAgent pipeline(config, std::move(selector),

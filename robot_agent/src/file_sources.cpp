@@ -113,14 +113,4 @@ std::unique_ptr<FrameSource> make_video_file_source(const SourceConfig& config, 
   return std::make_unique<VideoFileSource>(config, std::move(logger));
 }
 
-std::unique_ptr<FrameSource> make_frame_source(const SourceConfig& config, Logger logger) {
-  switch (config.kind) {
-    case SourceConfig::Kind::kImageFolder: return make_image_folder_source(config, logger);
-    case SourceConfig::Kind::kVideoFile: return make_video_file_source(config, logger);
-    case SourceConfig::Kind::kGenerated: return make_generated_source(config);
-    case SourceConfig::Kind::kScenario: return make_scenario_source(config, logger);
-  }
-  throw StartupError("source.kind: unsupported");
-}
-
 }  // namespace keyfleet::agent

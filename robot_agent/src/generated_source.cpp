@@ -1,5 +1,5 @@
-// A stand-in camera until the scenario generator lands: a drone panning along a
-// procedurally drawn street front with shop signs, with bob, shake and sensor noise.
+// A self-contained camera for demos and tests that need no scenario on disk: a drone panning
+// along a procedurally drawn street front with shop signs, with bob, shake and sensor noise.
 #include <opencv2/imgproc.hpp>
 
 #include <array>

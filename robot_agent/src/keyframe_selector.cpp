@@ -1,5 +1,8 @@
 #include "keyfleet/agent/keyframe_selector.hpp"
 
+#include "keyfleet/agent/semantic_score.hpp"
+#include "keyfleet/vision/model_files.hpp"
+
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -11,7 +14,7 @@ namespace keyfleet::agent {
 
 HierarchicalSelector::HierarchicalSelector(const SelectorConfig& config,
                                            std::unique_ptr<KeyframeTrigger> trigger,
-                                           std::unique_ptr<TextSegmenter> segmenter,
+                                           std::unique_ptr<vision::TextSegmenter> segmenter,
                                            StageClock* clock)
     : config_(config),
       trigger_(std::move(trigger)),
@@ -184,11 +187,11 @@ std::unique_ptr<KeyframeSelector> make_selector(const SelectorConfig& config, do
       break;
     }
   }
-  std::unique_ptr<TextSegmenter> segmenter;
+  std::unique_ptr<vision::TextSegmenter> segmenter;
   if (config.strategy == SelectorConfig::Strategy::kSemantic ||
       config.strategy == SelectorConfig::Strategy::kFull)
-    segmenter = std::make_unique<DnnTextSegmenter>(locate_model(config.semantic.model),
-                                                   config.semantic.threads);
+    segmenter = std::make_unique<vision::DnnTextSegmenter>(
+        vision::locate_model(config.semantic.model, "segmenter model"), config.semantic.threads);
   return std::make_unique<HierarchicalSelector>(config, std::move(trigger), std::move(segmenter),
                                                 clock);
 }

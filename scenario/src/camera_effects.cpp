@@ -1,4 +1,5 @@
 #include "keyfleet/scenario/camera_effects.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>

@@ -1,4 +1,5 @@
 #include "keyfleet/scenario/flight.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 
 #include <Eigen/Geometry>
 #include <cmath>

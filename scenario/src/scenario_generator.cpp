@@ -1,4 +1,5 @@
 #include "keyfleet/scenario/scenario_generator.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>

@@ -1,4 +1,5 @@
 #include "keyfleet/scenario/street_world.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 
 #include <opencv2/imgproc.hpp>
 

@@ -1,4 +1,5 @@
 #include "keyfleet/scenario/texture_library.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 
 #include <opencv2/imgcodecs.hpp>
 

@@ -4,8 +4,8 @@
 #include <map>
 #include <sstream>
 
-#include "keyfleet/common/dds_transport.hpp"
 #include "keyfleet/common/image_codec.hpp"
+#include "keyfleet/dds/dds_transport.hpp"
 #include "support/fleet_fixture.hpp"
 
 namespace keyfleet::testing {

@@ -8,6 +8,7 @@
 #include "keyfleet/common/shutdown_signal.hpp"
 #include "keyfleet/mission/bandwidth_experiment.hpp"
 #include "keyfleet/mission/bandwidth_metrics.hpp"
+#include "keyfleet/mission/experiment_config.hpp"
 #include "keyfleet/mission/link_shaping.hpp"
 #include "support/fleet_fixture.hpp"
 

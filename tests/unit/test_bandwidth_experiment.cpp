@@ -9,6 +9,7 @@
 #include "keyfleet/common/config_error.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/mission/bandwidth_metrics.hpp"
+#include "keyfleet/mission/experiment_config.hpp"
 
 namespace keyfleet::mission {
 namespace {

@@ -19,10 +19,10 @@
 #include <vector>
 
 #include "keyfleet/common/error.hpp"
-#include "keyfleet/station/bow_database.hpp"
-#include "keyfleet/station/bow_matching.hpp"
-#include "keyfleet/station/orb_extractor.hpp"
-#include "keyfleet/station/orb_vocabulary.hpp"
+#include "keyfleet/station/places/bow_database.hpp"
+#include "keyfleet/station/places/bow_matching.hpp"
+#include "keyfleet/station/places/orb_extractor.hpp"
+#include "keyfleet/station/places/orb_vocabulary.hpp"
 #include "test_support.hpp"
 
 namespace keyfleet::station {

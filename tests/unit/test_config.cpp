@@ -6,6 +6,10 @@
 
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/config_error.hpp"
+#include "keyfleet/eval/eval_config.hpp"
+#include "keyfleet/mission/experiment_config.hpp"
+#include "keyfleet/mission/mission_config.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 
 namespace keyfleet {
 namespace {
@@ -198,11 +202,9 @@ TEST(ConfigBadValue, StationDomainIdOutOfRangeNamesKey) {
 }
 
 TEST(ConfigBadValue, StationUnknownVerifierNamesKeyAndChoices) {
-  const std::string message = config_error_of([] {
-    parse_station_config("analysis:\n  places:\n    verifier: magic\n", "station.yaml");
-  });
-  EXPECT_NE(message.find("station.yaml:3: analysis.places.verifier"), std::string::npos)
-      << message;
+  const std::string message = config_error_of(
+      [] { parse_station_config("analysis:\n  places:\n    verifier: magic\n", "station.yaml"); });
+  EXPECT_NE(message.find("station.yaml:3: analysis.places.verifier"), std::string::npos) << message;
   EXPECT_NE(message.find("ransac_homography"), std::string::npos) << message;
 }
 
@@ -349,14 +351,14 @@ TEST(ConfigRoundTrip, StationToYamlParsesBackToTheSameValues) {
   c.dds.lease_duration_s = 9.5;
   c.analysis.workers = 2;
   c.analysis.text.enabled = false;
-  c.analysis.places.verifier = "ransac_fundamental";
+  c.analysis.places.verifier = VerifierKind::kRansacFundamental;
   c.analysis.places.min_inliers = 45;
 
   const std::string yaml = to_yaml(c);
   const StationConfig back = parse_station_config(yaml, "round-trip");
   EXPECT_EQ(back.analysis.workers, 2) << yaml;
   EXPECT_FALSE(back.analysis.text.enabled);
-  EXPECT_EQ(back.analysis.places.verifier, "ransac_fundamental");
+  EXPECT_EQ(back.analysis.places.verifier, VerifierKind::kRansacFundamental);
   EXPECT_EQ(back.analysis.places.min_inliers, 45);
   EXPECT_EQ(back.limits.max_image_bytes, c.limits.max_image_bytes) << yaml;
   EXPECT_EQ(back.limits.max_width, c.limits.max_width);

@@ -9,6 +9,7 @@
 
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/config_error.hpp"
+#include "keyfleet/eval/eval_config.hpp"
 #include "keyfleet/eval/eval_runner.hpp"
 
 namespace keyfleet::eval {

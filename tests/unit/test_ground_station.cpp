@@ -4,11 +4,11 @@
 
 #include <chrono>
 #include <cstdint>
-#include <deque>
 #include <set>
 #include <string>
 #include <vector>
 
+#include "fake_links.hpp"
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/sqlite.hpp"
@@ -21,39 +21,7 @@
 namespace keyfleet::station {
 namespace {
 
-// Hands out queued inboxes one per take() and records every acknowledgement.
-class FakeStationLink : public StationLink {
- public:
-  void queue(StationInbox inbox) { inboxes_.push_back(std::move(inbox)); }
-
-  StationInbox take(std::chrono::milliseconds wait, std::size_t max_keyframes) override {
-    last_wait = wait;
-    last_max_keyframes = max_keyframes;
-    if (inboxes_.empty()) return {};
-    StationInbox inbox = std::move(inboxes_.front());
-    inboxes_.pop_front();
-    return inbox;
-  }
-
-  PublishResult acknowledge(const KeyframeAck& ack) override {
-    acks.push_back(ack);
-    PublishResult result;
-    result.ok = acknowledge_ok;
-    result.serialized_bytes = acknowledge_ok ? 64 : 0;
-    if (!acknowledge_ok) result.error = "writer busy";
-    return result;
-  }
-
-  std::size_t matched_agents() const override { return 1; }
-
-  std::vector<KeyframeAck> acks;
-  bool acknowledge_ok = true;
-  std::chrono::milliseconds last_wait{-1};
-  std::size_t last_max_keyframes = 0;
-
- private:
-  std::deque<StationInbox> inboxes_;
-};
+using keyfleet::test::FakeStationLink;
 
 ReceivedKeyframe received(const Keyframe& k) { return ReceivedKeyframe{k, k.image.size() + 200}; }
 

@@ -18,14 +18,16 @@
 
 #include "keyfleet/agent/keyframe_selector.hpp"
 #include "keyfleet/agent/keyframe_trigger.hpp"
-#include "keyfleet/agent/text_segmenter.hpp"
 #include "keyfleet/common/config.hpp"
+#include "keyfleet/vision/text_segmenter.hpp"
 #include "test_support.hpp"
 
 namespace keyfleet::agent {
 namespace {
 
 using Strategy = SelectorConfig::Strategy;
+using vision::SegmenterInfo;
+using vision::TextSegmenter;
 
 constexpr double kFps = 30;
 constexpr int kWidth = 320, kHeight = 240;

@@ -14,10 +14,11 @@
 #include <vector>
 
 #include "keyfleet/agent/image_quality.hpp"
-#include "keyfleet/agent/image_quality_reference.hpp"
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/scenario_truth.hpp"
+#include "keyfleet/eval/image_quality_reference.hpp"
 #include "keyfleet/scenario/camera_effects.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 #include "keyfleet/scenario/scenario_generator.hpp"
 #include "test_support.hpp"
 
@@ -102,7 +103,7 @@ std::string join(const std::vector<double>& values) {
   return out.str();
 }
 
-namespace reference = keyfleet::agent::reference;
+namespace reference = keyfleet::eval::reference;
 
 // The agent's parameters (QualityConfig) and the defaults of SharpnessParams.
 std::vector<SharpnessParams> sharpness_params() {
@@ -265,8 +266,8 @@ TEST(KumarSharpness, FallsMonotonicallyWithMotionBlurOnRealPhotos) {
   }
 }
 
-// The second seed's gate (QualityConfig::sharpness_gate, measured at sharpness_width) must let
-// sharp photos through and stop clearly motion-blurred ones.
+// Ma and Zhao's sharpness gate (QualityConfig::sharpness_gate, measured at sharpness_width) must
+// let sharp photos through and stop clearly motion-blurred ones.
 TEST(KumarSharpness, DefaultGateSeparatesSharpPhotosFromEightPixelMotionBlur) {
   KEYFLEET_REQUIRE_DATA(kSharpPhotos);
   const QualityConfig quality;

@@ -17,11 +17,12 @@
 #include <vector>
 
 #include "keyfleet/agent/frame_source.hpp"
+#include "keyfleet/agent/grid_orb_extractor.hpp"
 #include "keyfleet/agent/keyframe_trigger.hpp"
-#include "keyfleet/agent/orb_features.hpp"
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/scenario_truth.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 #include "keyfleet/scenario/scenario_generator.hpp"
 #include "test_support.hpp"
 
@@ -158,7 +159,7 @@ std::array<int, 4> per_quadrant(const std::vector<cv::KeyPoint>& keypoints, cv::
   return counts;
 }
 
-void expect_spread_features(const OrbFeatures& features, const OrbParams& params, cv::Size size,
+void expect_spread_features(const OrbFeatures& features, const GridOrbParams& params, cv::Size size,
                             const std::string& what) {
   const auto& keypoints = features.keypoints;
   EXPECT_GT(keypoints.size(), std::size_t(params.features) / 4) << what;
@@ -180,7 +181,7 @@ void expect_spread_features(const OrbFeatures& features, const OrbParams& params
 }
 
 TEST_F(GeneratedFlight, GridOrbExtractorKeepsTheQuotaSpreadOverAStreetView) {
-  OrbParams params;
+  GridOrbParams params;
   params.features = 400;
   cv::Mat grey;
   cv::cvtColor((*frames_)[10].image, grey, cv::COLOR_BGR2GRAY);
@@ -197,7 +198,7 @@ TEST(GridOrbExtractor, SpreadsFeaturesIntoWeakTextureBesideAStrongPattern) {
   for (int y = 0; y < 240; y += 16)
     for (int x = 0; x < 320; x += 16)
       grey(cv::Rect(x, y, 16, 16)).setTo((x / 16 + y / 16) % 2 ? 255 : 0);
-  OrbParams params;
+  GridOrbParams params;
   params.features = 1000;
   // Control: OpenCV's plain ORB keeps the strongest corners, nearly all in the checkerboard.
   std::vector<cv::KeyPoint> plain;
@@ -210,7 +211,7 @@ TEST(GridOrbExtractor, SpreadsFeaturesIntoWeakTextureBesideAStrongPattern) {
 }
 
 TEST(GridOrbExtractor, RespectsASmallQuota) {
-  OrbParams params;
+  GridOrbParams params;
   params.features = 50;
   cv::Mat grey;
   cv::cvtColor(test::make_noise_image(320, 240, 11), grey, cv::COLOR_BGR2GRAY);

@@ -5,9 +5,9 @@
 #include <optional>
 #include <stdexcept>
 
-#include "keyfleet/common/bandwidth_ledger.hpp"
+#include "keyfleet/agent/bandwidth_ledger.hpp"
 
-namespace keyfleet {
+namespace keyfleet::agent {
 namespace {
 
 // Records `frames` frames the way the agent does: a size only for the sampled ones.
@@ -145,4 +145,4 @@ TEST(BandwidthLedger, FillLeavesIdentityTimeAndStageFieldsAlone) {
 }
 
 }  // namespace
-}  // namespace keyfleet
+}  // namespace keyfleet::agent

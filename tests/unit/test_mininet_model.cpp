@@ -9,28 +9,32 @@
 #include <fstream>
 #include <optional>
 
-#include "keyfleet/agent/dnn_layers.hpp"
-#include "keyfleet/agent/segmenter_eval.hpp"
-#include "keyfleet/agent/text_segmenter.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/logging.hpp"
+#include "keyfleet/eval/segmenter_eval.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 #include "keyfleet/scenario/scenario_generator.hpp"
+#include "keyfleet/vision/dnn_layers.hpp"
+#include "keyfleet/vision/model_files.hpp"
+#include "keyfleet/vision/text_segmenter.hpp"
 #include "test_support.hpp"
 
-namespace keyfleet::agent {
+namespace keyfleet::vision {
 namespace {
+
+using namespace ::keyfleet::eval;
 
 namespace fs = std::filesystem;
 
 const std::string kShipped = "mininet_text.onnx";  // the agent's default, found beside bin/
 
 nlohmann::json description() {
-  std::ifstream in(fs::path(locate_model(kShipped)).replace_extension(".json"));
+  std::ifstream in(fs::path(locate_model(kShipped, "segmenter model")).replace_extension(".json"));
   return nlohmann::json::parse(in);
 }
 
 TEST(ShippedMiniNet, LoadsFromTheDefaultLocationWithItsDescription) {
-  const std::string path = locate_model(kShipped);
+  const std::string path = locate_model(kShipped, "segmenter model");
   const SegmenterInfo info = read_segmenter_info(path);
   EXPECT_EQ(info.classes, (std::vector<std::string>{"background", "text"}));
   EXPECT_EQ(info.input_size.width % 64, 0);
@@ -42,7 +46,7 @@ TEST(ShippedMiniNet, LoadsFromTheDefaultLocationWithItsDescription) {
 
 TEST(ShippedMiniNet, ReproducesTheReferenceRecordedAtExport) {
   const auto reference = description().at("reference");
-  DnnTextSegmenter net(locate_model(kShipped), 1);
+  DnnTextSegmenter net(locate_model(kShipped, "segmenter model"), 1);
   const cv::Size size = net.info().input_size;
   cv::Mat pattern(size, CV_8UC3);
   for (int y = 0; y < size.height; ++y)
@@ -64,7 +68,7 @@ TEST(ShippedMiniNet, FindsTextPixelsOfGeneratedViewsAboveStatedFloors) {
   config.seed = 4242;  // streets the model was not trained on
   config.street.sign_probability = 1.0;
   scenario::generate_training_set(config, dir.path().string(), 12, null_logger());
-  DnnTextSegmenter net(locate_model(kShipped), 2);
+  DnnTextSegmenter net(locate_model(kShipped, "segmenter model"), 2);
   const SegmentationScores s = evaluate_on_pairs(net, dir.path().string(), 0);
   EXPECT_EQ(s.images, 12u);
   EXPECT_GT(s.recall, 0.50) << "precision " << s.precision << ", IoU " << s.iou;
@@ -75,7 +79,7 @@ TEST(ShippedMiniNet, FindsTextPixelsOfGeneratedViewsAboveStatedFloors) {
 // keyfleet's stand-ins for OpenCV's layers (the default) against OpenCV's own on the shipped
 // network: the same logits to float rounding, and so the same masks but for the odd tie.
 TEST(ShippedMiniNet, StandInLayersGiveOpenCvsLogits) {
-  const std::string path = locate_model(kShipped);
+  const std::string path = locate_model(kShipped, "segmenter model");
   const cv::Size size = read_segmenter_info(path).input_size;
   cv::Mat frame(size, CV_8UC3);
   cv::randu(frame, 0, 256);
@@ -101,7 +105,7 @@ TEST(ShippedMiniNet, StandInLayersGiveOpenCvsLogits) {
 
 TEST(ShippedMiniNet, ATruncatedCopyIsRefusedWithTheFileNamed) {
   test::TempDir dir;
-  const fs::path shipped = locate_model(kShipped);
+  const fs::path shipped = locate_model(kShipped, "segmenter model");
   const fs::path copy = dir.path() / "truncated.onnx";
   {
     std::ifstream in(shipped, std::ios::binary);
@@ -118,4 +122,4 @@ TEST(ShippedMiniNet, ATruncatedCopyIsRefusedWithTheFileNamed) {
 }
 
 }  // namespace
-}  // namespace keyfleet::agent
+}  // namespace keyfleet::vision

@@ -20,6 +20,7 @@
 #include "keyfleet/common/fnv1a.hpp"
 #include "keyfleet/scenario/camera_effects.hpp"
 #include "keyfleet/scenario/flight.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 #include "keyfleet/scenario/scenario_generator.hpp"
 #include "test_support.hpp"
 

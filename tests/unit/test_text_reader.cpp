@@ -8,13 +8,15 @@
 #include <fstream>
 
 #include "keyfleet/common/error.hpp"
-#include "keyfleet/station/text_dataset_eval.hpp"
-#include "keyfleet/station/text_eval.hpp"
-#include "keyfleet/station/text_reader.hpp"
+#include "keyfleet/eval/text_dataset_eval.hpp"
+#include "keyfleet/eval/text_eval.hpp"
+#include "keyfleet/station/text/text_reader.hpp"
 #include "test_support.hpp"
 
 namespace keyfleet::station {
 namespace {
+
+using namespace ::keyfleet::eval;
 
 GtWord gt(int x, int y, int w, int h, const std::string& text) {
   GtWord word;
@@ -147,7 +149,7 @@ TEST(CroppedWordReading, JoinsWordsLeftToRight) {
 }
 
 TEST(WordFilter, DropsJunkKeepsWords) {
-  TextReaderParams p;
+  TextReadingConfig p;
   p.min_confidence = 0.5f;
   p.min_word_length = 2;
   EXPECT_TRUE(keep_word(det(0, 0, 10, 10, "HOTEL"), p));
@@ -184,7 +186,7 @@ cv::Mat sign_image(const std::string& word, cv::Rect& drawn) {
 class EveryEngine : public ::testing::TestWithParam<std::string> {
  protected:
   std::unique_ptr<TextReader> reader() {
-    TextReaderParams params;
+    TextReadingConfig params;
     params.engine = GetParam();
     return make_text_reader(params);
   }
@@ -218,19 +220,19 @@ INSTANTIATE_TEST_SUITE_P(TextReader, EveryEngine,
                          });
 
 TEST(TextReaderFactory, StartupErrors) {
-  TextReaderParams params;
+  TextReadingConfig params;
   params.engine = "no-such-engine";
   EXPECT_THROW(make_text_reader(params), StartupError);
-  params = TextReaderParams{};
+  params = TextReadingConfig{};
   params.tessdata_dir = "/nonexistent/tessdata";
   EXPECT_THROW(make_text_reader(params), StartupError);
-  params = TextReaderParams{};
+  params = TextReadingConfig{};
   params.language = "xx_missing";
   EXPECT_THROW(make_text_reader(params), StartupError);
-  params = TextReaderParams{};
+  params = TextReadingConfig{};
   params.min_confidence = 2;
   EXPECT_THROW(make_text_reader(params), StartupError);
-  params = TextReaderParams{};
+  params = TextReadingConfig{};
   params.engine = "mininet+tesseract";
   params.segmenter_model = "/nonexistent/model.onnx";
   EXPECT_THROW(make_text_reader(params), StartupError);
@@ -242,14 +244,14 @@ TEST(TextReaderFactory, CorruptTraineddataIsAStartupError) {
     std::ofstream out(dir.file("eng.traineddata"), std::ios::binary);
     out << "not a traineddata file";
   }
-  TextReaderParams params;
+  TextReadingConfig params;
   params.tessdata_dir = dir.path().string();
   EXPECT_THROW(make_text_reader(params), StartupError);
 }
 
 TEST(TextReaderOnRealData, ReadsCroppedWords) {
   KEYFLEET_REQUIRE_DATA("words_mmocr/labels.json");
-  TextReaderParams params;
+  TextReadingConfig params;
   const auto reader = make_text_reader(params);
   const auto result = evaluate_cropped_words(*reader, data_path.parent_path().string());
   EXPECT_EQ(result.words, 10u);

@@ -15,13 +15,16 @@
 #include <string>
 #include <vector>
 
-#include "keyfleet/agent/dnn_layers.hpp"
-#include "keyfleet/agent/text_segmenter.hpp"
+#include "keyfleet/agent/semantic_score.hpp"
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/vision/dnn_layers.hpp"
+#include "keyfleet/vision/text_segmenter.hpp"
 #include "test_support.hpp"
 
-namespace keyfleet::agent {
+namespace keyfleet::vision {
 namespace {
+
+using agent::semantic_score;
 
 namespace fs = std::filesystem;
 
@@ -265,4 +268,4 @@ TEST(SemanticScore, MoreCentredTextScoresHigher) {
 }
 
 }  // namespace
-}  // namespace keyfleet::agent
+}  // namespace keyfleet::vision

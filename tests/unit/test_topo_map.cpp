@@ -13,7 +13,7 @@
 #include <utility>
 #include <vector>
 
-#include "keyfleet/station/topo_map.hpp"
+#include "keyfleet/station/map/topo_map.hpp"
 
 namespace keyfleet::station {
 namespace {

@@ -16,8 +16,8 @@
 #include <vector>
 
 #include "keyfleet/common/error.hpp"
-#include "keyfleet/station/match_verifier.hpp"
-#include "keyfleet/station/vfc.hpp"
+#include "keyfleet/station/geometry/match_verifier.hpp"
+#include "keyfleet/station/geometry/vfc.hpp"
 #include "test_support.hpp"
 
 namespace {

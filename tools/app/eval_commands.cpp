@@ -1,4 +1,4 @@
-// `keyfleet eval CONFIG [--out DIR]`: the first seed's Fig. 6 (words read and place
+// `keyfleet eval CONFIG [--out DIR]`: Fig. 6 of Alonso et al. (ICRA 2019) (words read and place
 // recognition against the share of V-SLAM keyframes kept) on a generated scenario.
 #include <chrono>
 #include <cstdio>
@@ -11,6 +11,7 @@
 #include "commands.hpp"
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
+#include "keyfleet/eval/eval_config.hpp"
 #include "keyfleet/eval/eval_runner.hpp"
 
 namespace keyfleet::commands {
@@ -66,7 +67,7 @@ void run_eval_command(const EvalOptions& o) {
 void add_eval_commands(CLI::App& app) {
   auto options = std::make_shared<EvalOptions>();
   auto* eval = app.add_subcommand(
-      "eval", "the first seed's Fig. 6 on a generated scenario: words read, places, bytes");
+      "eval", "Fig. 6 of Alonso et al. 2019 on a generated scenario: words read, places, bytes");
   eval->add_option("config", options->config, "evaluation YAML (see configs/eval.yaml)")
       ->required()
       ->check(CLI::ExistingFile);

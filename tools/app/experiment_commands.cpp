@@ -8,6 +8,7 @@
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/shutdown_signal.hpp"
 #include "keyfleet/mission/bandwidth_experiment.hpp"
+#include "keyfleet/mission/experiment_config.hpp"
 
 namespace keyfleet::commands {
 namespace {

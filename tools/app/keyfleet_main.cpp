@@ -9,11 +9,13 @@
 
 #include "commands.hpp"
 
-#include "keyfleet/agent/selection_eval.hpp"
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/process_tuning.hpp"
+#include "keyfleet/eval/selection_eval.hpp"
+#include "keyfleet/mission/mission_config.hpp"
 #include "keyfleet/mission/mission_runner.hpp"
 #include "keyfleet/scenario/montage.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 #include "keyfleet/scenario/scenario_generator.hpp"
 
 #include <opencv2/imgcodecs.hpp>
@@ -92,7 +94,7 @@ int run_selection_eval(const std::string& scenario_dir, const std::vector<std::s
     std::printf("(no text model given: semantic and full skipped; pass --model)\n");
   }
   for (const auto& drone : drones) {
-    const auto e = agent::evaluate_selection(scenario_dir, drone, agent.selector, strategies);
+    const auto e = eval::evaluate_selection(scenario_dir, drone, agent.selector, strategies);
     std::printf(
         "\n%s: %zu frames, %zu distinct words fully visible in the sequence, trigger "
         "%.2f ms/frame\n",

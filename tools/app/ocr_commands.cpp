@@ -12,8 +12,9 @@
 #include <vector>
 
 #include "commands.hpp"
-#include "keyfleet/station/text_dataset_eval.hpp"
-#include "keyfleet/station/text_reader.hpp"
+#include "keyfleet/common/config.hpp"
+#include "keyfleet/eval/text_dataset_eval.hpp"
+#include "keyfleet/station/text/text_reader.hpp"
 
 namespace keyfleet::commands {
 namespace {
@@ -27,7 +28,7 @@ std::string join_widths(const std::vector<int>& widths) {
 namespace fs = std::filesystem;
 
 struct OcrOptions {
-  station::TextReaderParams params;
+  TextReadingConfig params;
   std::vector<std::string> engines;
   std::string data = "../shared/data";
   std::size_t max_images = 0;
@@ -42,7 +43,7 @@ double keyframe_ms(station::TextReader& reader, const fs::path& images) {
     if (photo.empty()) continue;
     cv::Mat keyframe;
     cv::resize(photo, keyframe, cv::Size(640, 480), 0, 0, cv::INTER_AREA);
-    ms.push_back(station::median_read_ms(reader, keyframe, 1));
+    ms.push_back(eval::median_read_ms(reader, keyframe, 1));
   }
   if (ms.empty()) return 0.0;
   std::nth_element(ms.begin(), ms.begin() + long(ms.size() / 2), ms.end());
@@ -68,18 +69,18 @@ void run_eval(const OcrOptions& o) {
   const std::vector<std::string> engines =
       o.engines.empty() ? station::text_reader_engines() : o.engines;
   for (const auto& engine : engines) {
-    station::TextReaderParams params = o.params;
+    TextReadingConfig params = o.params;
     params.engine = engine;
     const auto reader = station::make_text_reader(params);
-    const auto e2e = station::evaluate_end_to_end(*reader, sharp.string(), o.max_images);
+    const auto e2e = eval::evaluate_end_to_end(*reader, sharp.string(), o.max_images);
     char blurred_cell[64] = "(give --max-images)";
     if (with_blurred) {
-      const auto b = station::evaluate_end_to_end(*reader, blurred.string(), o.max_images);
+      const auto b = eval::evaluate_end_to_end(*reader, blurred.string(), o.max_images);
       std::snprintf(blurred_cell, sizeof blurred_cell, "%5.1f %5.1f %5.1f (%zu)",
                     100 * b.counts.recall(), 100 * b.counts.precision(), 100 * b.counts.f_score(),
                     b.images);
     }
-    const auto w = station::evaluate_cropped_words(*reader, words.string());
+    const auto w = eval::evaluate_cropped_words(*reader, words.string());
     std::printf("%-18s | %5.1f %5.1f %5.1f      | %-26s | %2zu/%-2zu     | %8.0f %8.0f\n",
                 engine.c_str(), 100 * e2e.counts.recall(), 100 * e2e.counts.precision(),
                 100 * e2e.counts.f_score(), blurred_cell, w.correct, w.words, e2e.median_ms,
@@ -91,7 +92,7 @@ void run_eval(const OcrOptions& o) {
 void run_read(const OcrOptions& o) {
   const cv::Mat image = cv::imread(o.image, cv::IMREAD_COLOR);
   if (image.empty()) throw std::runtime_error("cannot read image " + o.image);
-  station::TextReaderParams params = o.params;
+  TextReadingConfig params = o.params;
   if (!o.engines.empty()) params.engine = o.engines.front();
   const auto reader = station::make_text_reader(params);
   const auto words = reader->read(image);
@@ -102,6 +103,20 @@ void run_read(const OcrOptions& o) {
 }
 
 void add_reader_options(CLI::App& command, OcrOptions& o) {
+  // Added first, so that CLI11 applies the file before the flags below override its values.
+  command
+      .add_option_function<std::string>(
+          "--config",
+          [&o](const std::string& path) {
+            try {
+              o.params = load_station_config(path).analysis.text;
+            } catch (const std::exception& e) {  // reported by CLI11 as a bad option value
+              throw CLI::ValidationError("--config", e.what());
+            }
+          },
+          "a station config whose analysis.text section is the reader (default: the station's "
+          "defaults)")
+      ->check(CLI::ExistingFile);
   command.add_option("--min-confidence", o.params.min_confidence, "drop words below (0..1)")
       ->check(CLI::Range(0.0, 1.0));
   command.add_option("--min-word-length", o.params.min_word_length, "drop shorter words");
@@ -134,7 +149,7 @@ void add_ocr_commands(CLI::App& app) {
 
   auto* read = ocr->add_subcommand("read", "print the words read in one image");
   read->add_option("image", options->image, "image file")->required()->check(CLI::ExistingFile);
-  read->add_option("--engine", options->engines, "engine (default: the library's)")->expected(1);
+  read->add_option("--engine", options->engines, "engine (default: the config's)")->expected(1);
   add_reader_options(*read, *options);
   read->callback([options] { run_reporting([&] { run_read(*options); }); });
 }

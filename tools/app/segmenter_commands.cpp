@@ -1,6 +1,7 @@
-// `keyfleet segmenter eval`: the agent's text segmenter measured like the first seed's Table III
+// `keyfleet segmenter eval`: the agent's text segmenter measured like Table III of Alonso et
+// al. (ICRA 2019)
 // (recall, precision and IoU of the text class, GFLOPs, CPU ms on 1 and 2 threads) at several
-// input sizes, and the inference variants of agent/dnn_layers.hpp timed side by side.
+// input sizes, and the inference variants of vision/dnn_layers.hpp timed side by side.
 #include <opencv2/core.hpp>
 
 #include <algorithm>
@@ -12,8 +13,9 @@
 #include <vector>
 
 #include "commands.hpp"
-#include "keyfleet/agent/segmenter_eval.hpp"
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/eval/segmenter_eval.hpp"
+#include "keyfleet/vision/model_files.hpp"
 
 namespace keyfleet::commands {
 namespace {
@@ -47,7 +49,7 @@ cv::Size parse_size(const std::string& text, int multiple) {
 
 struct Variant {
   std::string model, label;
-  agent::DnnLayers layers;
+  vision::DnnLayers layers;
 };
 
 // Each model with OpenCV's layers, with the vectorised SELU only, and with both stand-ins (the
@@ -58,16 +60,16 @@ void print_variant_timings(const std::vector<Variant>& variants, const std::vect
   std::printf("%-10s %-30s %9s %6s %9s %6s\n", "input", "variant", "1 thread", "ratio", "2 threads",
               "ratio");
   for (const auto& size : sizes) {
-    std::vector<std::unique_ptr<agent::DnnTextSegmenter>> nets;
-    std::vector<agent::TextSegmenter*> segmenters;
+    std::vector<std::unique_ptr<vision::DnnTextSegmenter>> nets;
+    std::vector<vision::TextSegmenter*> segmenters;
     for (const auto& v : variants) {
-      nets.push_back(std::make_unique<agent::DnnTextSegmenter>(v.model, 0, size, v.layers));
+      nets.push_back(std::make_unique<vision::DnnTextSegmenter>(v.model, 0, size, v.layers));
       segmenters.push_back(nets.back().get());
     }
     std::vector<std::vector<double>> ms;  // per thread count, per variant
     for (int threads : {1, 2}) {
       cv::setNumThreads(threads);
-      ms.push_back(agent::median_forward_ms(segmenters, repetitions));
+      ms.push_back(eval::median_forward_ms(segmenters, repetitions));
     }
     for (std::size_t k = 0; k < variants.size(); ++k)
       std::printf("%4dx%-5d %-30s %9.1f %6.2f %9.1f %6.2f\n", size.width, size.height,
@@ -78,7 +80,7 @@ void print_variant_timings(const std::vector<Variant>& variants, const std::vect
 
 struct Set {
   std::string name;
-  std::function<agent::SegmentationScores(agent::TextSegmenter&)> run;
+  std::function<eval::SegmentationScores(vision::TextSegmenter&)> run;
   bool present;
 };
 
@@ -87,39 +89,39 @@ std::vector<Set> evaluation_sets(const SegmenterEvalOptions& o) {
   const std::size_t blurred =
       o.max_images ? std::min(o.max_images, kBlurredHeldOut) : kBlurredHeldOut;
   return {{"generated (held out)",
-           [&o](agent::TextSegmenter& s) {
-             return agent::evaluate_on_pairs(s, o.generated, o.max_images);
+           [&o](vision::TextSegmenter& s) {
+             return eval::evaluate_on_pairs(s, o.generated, o.max_images);
            },
            !o.generated.empty() && fs::is_directory(o.generated)},
           {"icdar2015 train_sharp",
-           [&o, icdar](agent::TextSegmenter& s) {
-             return agent::evaluate_on_icdar(s, (icdar / "train_sharp/images").string(),
-                                             (icdar / "train_sharp/gt").string(), o.max_images);
+           [&o, icdar](vision::TextSegmenter& s) {
+             return eval::evaluate_on_icdar(s, (icdar / "train_sharp/images").string(),
+                                            (icdar / "train_sharp/gt").string(), o.max_images);
            },
            fs::is_directory(icdar / "train_sharp")},
           {"icdar2015 test_blurred",
-           [icdar, blurred](agent::TextSegmenter& s) {
-             return agent::evaluate_on_icdar(s, (icdar / "test_blurred/images").string(),
-                                             (icdar / "test_blurred/gt").string(), blurred);
+           [icdar, blurred](vision::TextSegmenter& s) {
+             return eval::evaluate_on_icdar(s, (icdar / "test_blurred/images").string(),
+                                            (icdar / "test_blurred/gt").string(), blurred);
            },
            fs::is_directory(icdar / "test_blurred")}};
 }
 
 int run_segmenter_eval(const SegmenterEvalOptions& o) {
-  const std::string model = agent::locate_model(o.model);
-  const auto info = agent::read_segmenter_info(model);
+  const std::string model = vision::locate_model(o.model, "segmenter model");
+  const auto info = vision::read_segmenter_info(model);
   std::printf("model %s: %s\n", model.c_str(), info.description.c_str());
   std::vector<cv::Size> sizes;
   for (const auto& text : o.sizes) sizes.push_back(parse_size(text, info.size_multiple));
 
   std::vector<Variant> variants;
   for (std::size_t i = 0; i <= o.compare.size(); ++i) {
-    const std::string path = i ? agent::locate_model(o.compare[i - 1]) : model;
+    const std::string path = i ? vision::locate_model(o.compare[i - 1], "segmenter model") : model;
     if (i) std::printf("compare %zu: %s\n", i, path.c_str());
     const std::string name = i ? "compare " + std::to_string(i) : "model";
-    variants.push_back({path, name + ", OpenCV layers", agent::DnnLayers::opencv()});
-    variants.push_back({path, name + ", vectorised SELU", agent::DnnLayers{true, false}});
-    variants.push_back({path, name + ", SELU + depthwise", agent::DnnLayers{}});
+    variants.push_back({path, name + ", OpenCV layers", vision::DnnLayers::opencv()});
+    variants.push_back({path, name + ", vectorised SELU", vision::DnnLayers{true, false}});
+    variants.push_back({path, name + ", SELU + depthwise", vision::DnnLayers{}});
   }
   print_variant_timings(variants, sizes, o.repetitions);
 
@@ -128,7 +130,7 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
     std::printf("\n%-24s %-30s %7s %7s %7s %7s\n", "set (512x256)", "variant", "images", "R %",
                 "P %", "IoU %");
     for (const auto& v : variants) {
-      agent::DnnTextSegmenter net(v.model, 2, cv::Size(512, 256), v.layers);
+      vision::DnnTextSegmenter net(v.model, 2, cv::Size(512, 256), v.layers);
       const auto s = sets[0].run(net);
       std::printf("%-24s %-30s %7zu %7.2f %7.2f %7.2f\n", sets[0].name.c_str(), v.label.c_str(),
                   s.images, 100 * s.recall, 100 * s.precision, 100 * s.iou);
@@ -141,12 +143,12 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
   std::printf("%-24s %-9s %7s %7s %7s %7s %7s %8s %8s\n", "set", "input", "images", "R %", "P %",
               "IoU %", "GFLOPs", "ms 1 thr", "ms 2 thr");
   for (const auto& size : sizes) {
-    agent::DnnTextSegmenter net(model, 0, size);
-    std::vector<agent::TextSegmenter*> one = {&net};
+    vision::DnnTextSegmenter net(model, 0, size);
+    std::vector<vision::TextSegmenter*> one = {&net};
     cv::setNumThreads(1);
-    const double ms1 = agent::median_forward_ms(one, o.repetitions).at(0);
+    const double ms1 = eval::median_forward_ms(one, o.repetitions).at(0);
     cv::setNumThreads(2);
-    const double ms2 = agent::median_forward_ms(one, o.repetitions).at(0);
+    const double ms2 = eval::median_forward_ms(one, o.repetitions).at(0);
     const double gflops = info.gflops_512x256 * size.area() / (512.0 * 256.0);
     for (const auto& set : sets) {
       if (!set.present) continue;
@@ -169,8 +171,8 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
 void add_segmenter_commands(CLI::App& app) {
   auto* segmenter = app.add_subcommand("segmenter", "the agent's text segmenter");
   segmenter->require_subcommand(1);
-  auto* eval =
-      segmenter->add_subcommand("eval", "accuracy and CPU time, like the first seed's Table III");
+  auto* eval = segmenter->add_subcommand(
+      "eval", "accuracy and CPU time, like Table III of Alonso et al. 2019");
   auto o = std::make_shared<SegmenterEvalOptions>();
   eval->add_option("--model", o->model, "ONNX model with its .json");
   eval->add_option("--compare", o->compare,

@@ -14,8 +14,8 @@
 #include "keyfleet/station/analysis_setup.hpp"
 #include "keyfleet/station/analysis_store.hpp"
 #include "keyfleet/station/keyframe_store.hpp"
+#include "keyfleet/station/map/topo_map.hpp"
 #include "keyfleet/station/station_analysis.hpp"
-#include "keyfleet/station/topo_map.hpp"
 
 namespace keyfleet::commands {
 namespace {

@@ -15,8 +15,8 @@
 
 #include "commands.hpp"
 #include "keyfleet/common/error.hpp"
-#include "keyfleet/station/orb_extractor.hpp"
-#include "keyfleet/station/orb_vocabulary.hpp"
+#include "keyfleet/station/places/orb_extractor.hpp"
+#include "keyfleet/station/places/orb_vocabulary.hpp"
 
 namespace keyfleet::commands {
 namespace {

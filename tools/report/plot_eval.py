@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Fig. 6 (a) and (b) of the first seed from `keyfleet eval`'s results.json.
+"""Fig. 6 (a) and (b) of Alonso et al. (ICRA 2019) from `keyfleet eval`'s results.json.
 
 usage: plot_eval.py OUT_DIR   (reads OUT_DIR/results.json, writes fig6a_words.png and
 fig6b_places.png there). Debian's python3-matplotlib; small PNGs for the README.

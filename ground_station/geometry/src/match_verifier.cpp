@@ -1,4 +1,4 @@
-#include "keyfleet/station/match_verifier.hpp"
+#include "keyfleet/station/geometry/match_verifier.hpp"
 
 #include <algorithm>
 #include <string>
@@ -59,20 +59,9 @@ std::unique_ptr<MatchVerifier> make_match_verifier(VerifierKind kind, const VfcP
 }
 
 VerifierKind parse_verifier_kind(const std::string& text) {
-  if (text == "vfc") return VerifierKind::kVfc;
-  if (text == "ransac_homography") return VerifierKind::kRansacHomography;
-  if (text == "ransac_fundamental") return VerifierKind::kRansacFundamental;
-  throw StartupError("unknown match verifier '" + text +
-                     "' (expected vfc, ransac_homography or ransac_fundamental)");
-}
-
-std::string to_string(VerifierKind kind) {
-  switch (kind) {
-    case VerifierKind::kVfc: return "vfc";
-    case VerifierKind::kRansacHomography: return "ransac_homography";
-    case VerifierKind::kRansacFundamental: return "ransac_fundamental";
-  }
-  return "unknown";
+  if (const auto kind = verifier_kind(text)) return *kind;
+  throw StartupError("unknown match verifier '" + text + "' (expected one of " +
+                     verifier_kind_choices() + ")");
 }
 
 }  // namespace keyfleet::station

@@ -2,7 +2,7 @@
 // The concrete verifiers, known only to the factory.
 #include <memory>
 
-#include "keyfleet/station/match_verifier.hpp"
+#include "keyfleet/station/geometry/match_verifier.hpp"
 
 namespace keyfleet::station::detail {
 

@@ -1,4 +1,4 @@
-#include "keyfleet/station/vfc.hpp"
+#include "keyfleet/station/geometry/vfc.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>

@@ -1,4 +1,4 @@
-#include "keyfleet/station/topo_map.hpp"
+#include "keyfleet/station/map/topo_map.hpp"
 
 #include <boost/graph/breadth_first_search.hpp>
 #include <boost/graph/visitors.hpp>

@@ -5,7 +5,7 @@
 
 #include <limits>
 
-#include "keyfleet/station/topo_map.hpp"
+#include "keyfleet/station/map/topo_map.hpp"
 
 namespace keyfleet::station {
 namespace {

@@ -1,4 +1,4 @@
-#include "keyfleet/station/bow_database.hpp"
+#include "keyfleet/station/places/bow_database.hpp"
 
 #include <algorithm>
 #include <stdexcept>

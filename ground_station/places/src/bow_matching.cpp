@@ -1,4 +1,4 @@
-#include "keyfleet/station/bow_matching.hpp"
+#include "keyfleet/station/places/bow_matching.hpp"
 
 #include <algorithm>
 #include <limits>

@@ -1,4 +1,4 @@
-#include "keyfleet/station/orb_extractor.hpp"
+#include "keyfleet/station/places/orb_extractor.hpp"
 
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -7,17 +7,10 @@
 #include <cmath>
 #include <numeric>
 
+#include "keyfleet/vision/image_helpers.hpp"
+
 namespace keyfleet::station {
 namespace {
-
-cv::Mat to_grey(const cv::Mat& image) {
-  if (image.empty() || image.depth() != CV_8U) return {};
-  if (image.channels() == 1) return image;
-  cv::Mat grey;
-  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
-  if (image.channels() == 4) cv::cvtColor(image, grey, cv::COLOR_BGRA2GRAY);
-  return grey;
-}
 
 // Indices of at most `quota` keypoints: the strongest of every cell first, round by round.
 std::vector<int> spread(const std::vector<cv::KeyPoint>& keypoints, cv::Size size, int cell_px,
@@ -27,25 +20,8 @@ std::vector<int> spread(const std::vector<cv::KeyPoint>& keypoints, cv::Size siz
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
     return keypoints[std::size_t(a)].response > keypoints[std::size_t(b)].response;
   });
-  const int cell = std::max(8, cell_px);
-  const int cols = (size.width + cell - 1) / cell, rows = (size.height + cell - 1) / cell;
-  std::vector<std::vector<int>> cells(std::size_t(cols * rows));
-  for (int i : order) {
-    const auto& p = keypoints[std::size_t(i)].pt;
-    const int cx = std::clamp(int(p.x) / cell, 0, cols - 1);
-    const int cy = std::clamp(int(p.y) / cell, 0, rows - 1);
-    cells[std::size_t(cy * cols + cx)].push_back(i);
-  }
-  std::vector<int> kept;
-  for (std::size_t round = 0; int(kept.size()) < quota; ++round) {
-    bool any = false;
-    for (const auto& c : cells) {
-      if (round >= c.size() || int(kept.size()) >= quota) continue;
-      kept.push_back(c[round]);
-      any = true;
-    }
-    if (!any) break;
-  }
+  std::vector<int> kept =
+      vision::spread_over_grid(keypoints, order, size, double(std::max(8, cell_px)), quota);
   std::sort(kept.begin(), kept.end());
   return kept;
 }
@@ -54,7 +30,7 @@ std::vector<int> spread(const std::vector<cv::KeyPoint>& keypoints, cv::Size siz
 
 OrbFeatures extract_orb(const cv::Mat& image, const OrbParams& params) {
   OrbFeatures out;
-  const cv::Mat grey = to_grey(image);
+  const cv::Mat grey = vision::to_grey(image);
   if (grey.empty()) return out;
   const int features = std::max(1, params.features);
   const float scale = params.scale > 1.0f ? params.scale : 1.2f;

@@ -1,4 +1,4 @@
-#include "keyfleet/station/orb_vocabulary.hpp"
+#include "keyfleet/station/places/orb_vocabulary.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,7 +1,7 @@
 #pragma once
 #include <string>
 
-#include "keyfleet/station/orb_vocabulary.hpp"
+#include "keyfleet/station/places/orb_vocabulary.hpp"
 
 namespace keyfleet::station::detail {
 

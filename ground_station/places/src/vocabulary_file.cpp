@@ -7,7 +7,7 @@
 
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/fnv1a.hpp"
-#include "keyfleet/station/orb_vocabulary.hpp"
+#include "keyfleet/station/places/orb_vocabulary.hpp"
 #include "vocabulary_checks.hpp"
 
 // The vocabulary file: magic, version, parameters, training image count, then the nodes in

@@ -5,6 +5,8 @@
 
 #include "image_prep.hpp"
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/vision/image_helpers.hpp"
+#include "keyfleet/vision/model_files.hpp"
 #include "line_reading.hpp"
 #include "readers.hpp"
 
@@ -31,9 +33,9 @@ std::vector<cv::Rect> merge_overlapping(std::vector<cv::Rect> boxes) {
 
 }  // namespace
 
-DetectRecogniseReader::DetectRecogniseReader(const TextReaderParams& params)
+DetectRecogniseReader::DetectRecogniseReader(const TextReadingConfig& params)
     : params_(params),
-      model_path_(agent::locate_model(params.segmenter_model)),
+      model_path_(vision::locate_model(params.segmenter_model, "segmenter model")),
       ocr_(params.tessdata_dir, params.language, params.thresholding_method) {
   if (params.segmenter_widths.empty())
     throw StartupError("text reader: no segmenter widths for mininet+tesseract");
@@ -45,11 +47,11 @@ DetectRecogniseReader::DetectRecogniseReader(const TextReaderParams& params)
   for (int w : params.segmenter_widths) segmenter_for(w, cv::Size(16, 9));
 }
 
-agent::DnnTextSegmenter& DetectRecogniseReader::segmenter_for(int w, cv::Size image_size) {
+vision::DnnTextSegmenter& DetectRecogniseReader::segmenter_for(int w, cv::Size image_size) {
   const int h = round_up_64(double(w) * image_size.height / std::max(1, image_size.width));
   auto& slot = segmenters_[{w, h}];
   if (!slot)
-    slot = std::make_unique<agent::DnnTextSegmenter>(model_path_, params_.threads, cv::Size(w, h));
+    slot = std::make_unique<vision::DnnTextSegmenter>(model_path_, params_.threads, cv::Size(w, h));
   return *slot;
 }
 
@@ -88,14 +90,14 @@ std::vector<cv::Rect> DetectRecogniseReader::regions_at(int width, const cv::Mat
                      stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
     const int x = int(m.x * sx), y = int(m.y * sy);
     const int w = int(std::ceil(m.width * sx)), h = int(std::ceil(m.height * sy));
-    const int pad = int(std::ceil(params_.region_padding * h)) + 2;
+    const int pad = int(std::ceil(float(params_.region_padding) * h)) + 2;
     boxes.push_back(cv::Rect(x - pad, y - pad, w + 2 * pad, h + 2 * pad) & bounds);
   }
   return boxes;
 }
 
 std::vector<ReadWord> DetectRecogniseReader::read(const cv::Mat& image) {
-  const cv::Mat grey = to_grey(image, 8);
+  const cv::Mat grey = vision::to_grey(image, 8);
   if (grey.empty()) return {};
   cv::Mat bgr;
   if (image.channels() == 3) {

@@ -7,19 +7,6 @@
 
 namespace keyfleet::station {
 
-cv::Mat to_grey(const cv::Mat& image, int min_side) {
-  if (image.empty() || image.depth() != CV_8U || image.dims != 2) return {};
-  if (image.cols < min_side || image.rows < min_side) return {};
-  cv::Mat grey;
-  switch (image.channels()) {
-    case 1: grey = image.clone(); break;
-    case 3: cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY); break;
-    case 4: cv::cvtColor(image, grey, cv::COLOR_BGRA2GRAY); break;
-    default: return {};
-  }
-  return grey;
-}
-
 double reading_scale(cv::Size size, int min_long_side, int max_long_side) {
   const int long_side = std::max(size.width, size.height);
   if (long_side <= 0) return 1.0;

@@ -3,7 +3,7 @@
 
 #include <vector>
 
-#include "keyfleet/station/text_reader.hpp"
+#include "keyfleet/station/text/text_reader.hpp"
 #include "tesseract_ocr.hpp"
 
 namespace keyfleet::station {

@@ -4,8 +4,8 @@
 #include <memory>
 #include <utility>
 
-#include "keyfleet/agent/text_segmenter.hpp"
-#include "keyfleet/station/text_reader.hpp"
+#include "keyfleet/station/text/text_reader.hpp"
+#include "keyfleet/vision/text_segmenter.hpp"
 #include "tesseract_ocr.hpp"
 
 namespace keyfleet::station {
@@ -13,12 +13,12 @@ namespace keyfleet::station {
 // Tesseract on the whole image: sparse-text page segmentation, word iterator.
 class TesseractReader final : public TextReader {
  public:
-  explicit TesseractReader(const TextReaderParams& params);
+  explicit TesseractReader(const TextReadingConfig& params);
   std::vector<ReadWord> read(const cv::Mat& bgr) override;
   std::string name() const override { return "tesseract"; }
 
  private:
-  TextReaderParams params_;
+  TextReadingConfig params_;
   TesseractOcr ocr_;
 };
 
@@ -27,7 +27,7 @@ class TesseractReader final : public TextReader {
 // padded and merged across widths, are read one by one by Tesseract as single lines.
 class DetectRecogniseReader final : public TextReader {
  public:
-  explicit DetectRecogniseReader(const TextReaderParams& params);
+  explicit DetectRecogniseReader(const TextReadingConfig& params);
   std::vector<ReadWord> read(const cv::Mat& bgr) override;
   std::string name() const override { return "mininet+tesseract"; }
 
@@ -35,14 +35,14 @@ class DetectRecogniseReader final : public TextReader {
   std::vector<cv::Rect> regions(const cv::Mat& bgr);
 
  private:
-  agent::DnnTextSegmenter& segmenter_for(int width, cv::Size image_size);
+  vision::DnnTextSegmenter& segmenter_for(int width, cv::Size image_size);
   std::vector<cv::Rect> regions_at(int width, const cv::Mat& bgr);
 
-  TextReaderParams params_;
+  TextReadingConfig params_;
   std::string model_path_;
   TesseractOcr ocr_;
   // The network takes any size that is a multiple of 64; one instance per input size.
-  std::map<std::pair<int, int>, std::unique_ptr<agent::DnnTextSegmenter>> segmenters_;
+  std::map<std::pair<int, int>, std::unique_ptr<vision::DnnTextSegmenter>> segmenters_;
 };
 
 }  // namespace keyfleet::station

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "keyfleet/station/text_reader.hpp"
+#include "keyfleet/station/text/text_reader.hpp"
 
 namespace tesseract {
 class TessBaseAPI;

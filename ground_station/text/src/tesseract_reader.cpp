@@ -1,16 +1,17 @@
 #include <algorithm>
 
 #include "image_prep.hpp"
+#include "keyfleet/vision/image_helpers.hpp"
 #include "line_reading.hpp"
 #include "readers.hpp"
 
 namespace keyfleet::station {
 
-TesseractReader::TesseractReader(const TextReaderParams& params)
+TesseractReader::TesseractReader(const TextReadingConfig& params)
     : params_(params), ocr_(params.tessdata_dir, params.language, params.thresholding_method) {}
 
 std::vector<ReadWord> TesseractReader::read(const cv::Mat& bgr) {
-  const cv::Mat grey = to_grey(bgr);
+  const cv::Mat grey = vision::to_grey(bgr, 4);
   if (grey.empty()) return {};
   std::vector<ReadWord> words;
   if (std::max(grey.cols, grey.rows) < kMaxCropLongSide) {

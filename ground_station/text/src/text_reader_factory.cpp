@@ -1,22 +1,46 @@
+#include <functional>
+
 #include "keyfleet/common/error.hpp"
-#include "keyfleet/station/text_reader.hpp"
+#include "keyfleet/station/text/text_reader.hpp"
 #include "readers.hpp"
 
 namespace keyfleet::station {
+namespace {
 
-std::vector<std::string> text_reader_engines() { return {"tesseract", "mininet+tesseract"}; }
+struct Engine {
+  const char* name;
+  std::function<std::unique_ptr<TextReader>(const TextReadingConfig&)> make;
+};
 
-std::unique_ptr<TextReader> make_text_reader(const TextReaderParams& params) {
-  if (params.min_confidence < 0 || params.min_confidence > 1)
-    throw StartupError("text reader: min_confidence " + std::to_string(params.min_confidence) +
+// Every engine, once: a new engine is a TextReader class and one line here.
+const std::vector<Engine>& engines() {
+  static const std::vector<Engine> all = {
+      {"tesseract", [](const auto& c) { return std::make_unique<TesseractReader>(c); }},
+      {"mininet+tesseract",
+       [](const auto& c) { return std::make_unique<DetectRecogniseReader>(c); }},
+  };
+  return all;
+}
+
+}  // namespace
+
+std::vector<std::string> text_reader_engines() {
+  std::vector<std::string> names;
+  for (const auto& engine : engines()) names.push_back(engine.name);
+  return names;
+}
+
+std::unique_ptr<TextReader> make_text_reader(const TextReadingConfig& config) {
+  if (!(config.min_confidence >= 0 && config.min_confidence <= 1))
+    throw StartupError("text reader: min_confidence " + std::to_string(config.min_confidence) +
                        " is outside 0..1");
-  if (params.min_word_length < 1)
+  if (config.min_word_length < 1)
     throw StartupError("text reader: min_word_length must be at least 1");
-  if (params.engine == "tesseract") return std::make_unique<TesseractReader>(params);
-  if (params.engine == "mininet+tesseract") return std::make_unique<DetectRecogniseReader>(params);
+  for (const auto& engine : engines())
+    if (config.engine == engine.name) return engine.make(config);
   std::string known;
-  for (const auto& e : text_reader_engines()) known += (known.empty() ? "" : ", ") + e;
-  throw StartupError("text reader: unknown engine '" + params.engine + "' (known: " + known + ")");
+  for (const auto& name : text_reader_engines()) known += (known.empty() ? "" : ", ") + name;
+  throw StartupError("text reader: unknown engine '" + config.engine + "' (known: " + known + ")");
 }
 
 }  // namespace keyfleet::station

@@ -39,7 +39,7 @@ class FleetFixture : public ::testing::Test {
   void TearDown() override;
 
   // Settings shared by every process of this test: unique domain and partition,
-  // fast discovery (lease 2 s, announcements 0.5 s) as DESIGN.md §3 suggests for tests.
+  // fast discovery (lease 2 s, announcements 0.5 s) so that tests wait seconds, not tens.
   DdsSettings dds() const;
   AgentConfig agent_config(const std::string& robot_id) const;
   StationConfig station_config() const;

@@ -115,7 +115,7 @@ std::string compare(const EvalResults& r, const std::string& a, const std::strin
 
 std::string report(const EvalResults& r) {
   std::ostringstream md;
-  md << "# keyfleet eval: the first seed's Fig. 6 on a generated scenario\n\n";
+  md << "# keyfleet eval: Fig. 6 of Alonso et al. (ICRA 2019) on a generated scenario\n\n";
   md << "Scenario `" << r.scenario_name << "` (seed " << r.scenario_seed << ", " << r.scenario_dir
      << "): ";
   for (std::size_t i = 0; i < r.drones.size(); ++i) md << (i ? ", " : "") << r.drones[i];

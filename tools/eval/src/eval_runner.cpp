@@ -1,4 +1,5 @@
 #include "keyfleet/eval/eval_runner.hpp"
+#include "keyfleet/eval/eval_config.hpp"
 
 #include <opencv2/core/utility.hpp>
 
@@ -11,16 +12,16 @@
 #include <set>
 #include <thread>
 
-#include "keyfleet/agent/selection_eval.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/image_codec.hpp"
-#include "keyfleet/common/model_files.hpp"
+#include "keyfleet/eval/selection_eval.hpp"
 #include "keyfleet/scenario/scenario_generator.hpp"
 #include "keyfleet/station/analysis_setup.hpp"
-#include "keyfleet/station/bow_database.hpp"
-#include "keyfleet/station/orb_extractor.hpp"
-#include "keyfleet/station/orb_vocabulary.hpp"
-#include "keyfleet/station/text_reader.hpp"
+#include "keyfleet/station/places/bow_database.hpp"
+#include "keyfleet/station/places/orb_extractor.hpp"
+#include "keyfleet/station/places/orb_vocabulary.hpp"
+#include "keyfleet/station/text/text_reader.hpp"
+#include "keyfleet/vision/model_files.hpp"
 
 namespace keyfleet::eval {
 namespace {
@@ -44,13 +45,13 @@ struct DroneRun {
 
 // Signs read in each frame, with `threads` readers (one Tesseract each) working at once.
 std::map<std::uint64_t, std::set<int>> read_frames(const std::vector<std::uint64_t>& frames,
-                                                   const agent::DroneFrames& drone, int threads,
+                                                   const DroneFrames& drone,
+                                                   const TextReadingConfig& text, int threads,
                                                    EvalCost& cost, std::string& reader_name) {
   const std::size_t workers =
       std::max<std::size_t>(1, std::min<std::size_t>(std::size_t(threads), frames.size()));
   std::vector<std::unique_ptr<station::TextReader>> readers;
-  for (std::size_t i = 0; i < workers; ++i)
-    readers.push_back(station::make_configured_text_reader(TextReadingConfig{}));  // the station's
+  for (std::size_t i = 0; i < workers; ++i) readers.push_back(station::make_text_reader(text));
   reader_name = readers.front()->name();
 
   std::vector<std::set<int>> found(frames.size());
@@ -139,7 +140,7 @@ struct Context {
 DroneRun evaluate_drone(const Context& ctx, const std::string& drone, EvalResults& results) {
   const EvalConfig& config = ctx.config;
   ctx.logger->info("{}: decoding frames", drone);
-  const agent::DroneFrames d = agent::load_drone_frames(ctx.scenario_dir, drone);
+  const DroneFrames d = load_drone_frames(ctx.scenario_dir, drone);
   DroneRun run;
   run.info = d.info;
   for (const auto& t : d.truth) run.positions.push_back(t.street_position_m);
@@ -149,14 +150,14 @@ DroneRun evaluate_drone(const Context& ctx, const std::string& drone, EvalResult
   cost.frames += d.frames.size();
 
   double trigger_ms = 0;
-  const auto vslam = agent::run_vslam_trigger(d.frames, config.selector, d.info.fps, &trigger_ms);
+  const auto vslam = run_vslam_trigger(d.frames, config.selector, d.info.fps, &trigger_ms);
   cost.trigger_ms_per_frame += trigger_ms / double(ctx.drones);
   ctx.logger->info("{}: {} V-SLAM keyframes ({:.1f} ms/frame)", drone, vslam.size(), trigger_ms);
 
-  std::unique_ptr<agent::CachingSegmenter> segmenter;
+  std::unique_ptr<CachingSegmenter> segmenter;
   if (!ctx.model.empty())
-    segmenter = std::make_unique<agent::CachingSegmenter>(
-        std::make_unique<agent::DnnTextSegmenter>(ctx.model, config.selector.semantic.threads));
+    segmenter = std::make_unique<CachingSegmenter>(
+        std::make_unique<vision::DnnTextSegmenter>(ctx.model, config.selector.semantic.threads));
   std::set<std::uint64_t> distinct;
   run.selected.assign(ctx.strategies.size(), {});
   for (std::size_t s = 0; s < ctx.strategies.size(); ++s)
@@ -165,10 +166,9 @@ DroneRun evaluate_drone(const Context& ctx, const std::string& drone, EvalResult
       for (auto i : spread_evenly(vslam.size(), density)) kept.push_back(vslam[i]);
       SelectorConfig selector = config.selector;
       selector.strategy = ctx.strategies[s];
-      StageClock clock;
+      agent::StageClock clock;
       std::vector<std::uint64_t> frames;
-      for (const auto& sel :
-           agent::select_on_keyframes(d.frames, kept, selector, segmenter.get(), &clock))
+      for (const auto& sel : select_on_keyframes(d.frames, kept, selector, segmenter.get(), &clock))
         frames.push_back(sel.frame.index);
       for (const auto& stage : clock.snapshot())
         if (stage.stage != "trigger" && stage.stage != "semantic")
@@ -188,7 +188,8 @@ DroneRun evaluate_drone(const Context& ctx, const std::string& drone, EvalResult
 
   const std::vector<std::uint64_t> to_read(distinct.begin(), distinct.end());
   ctx.logger->info("{}: reading the words in {} distinct selected frames", drone, to_read.size());
-  const auto read = read_frames(to_read, d, config.ocr_threads, cost, results.text_reader);
+  const auto read =
+      read_frames(to_read, d, config.text, config.ocr_threads, cost, results.text_reader);
 
   for (std::uint64_t f = 0; f < d.frames.size(); f += std::uint64_t(config.query_every))
     run.queries.push_back(f);
@@ -270,7 +271,7 @@ EvalResults run_eval(const EvalConfig& config, const std::string& scenario_dir, 
   results.place_tolerance_m = config.place_tolerance_m;
   results.query_every = config.query_every;
   results.jpeg_quality = config.codec.jpeg_quality;
-  results.vocabulary = locate_model_file(config.vocabulary, "place vocabulary");
+  results.vocabulary = vision::locate_model(config.vocabulary, "place vocabulary");
 
   Context ctx{config, scenario_dir,
               logger, {},
@@ -278,10 +279,10 @@ EvalResults run_eval(const EvalConfig& config, const std::string& scenario_dir, 
               {},     JpegCodec(config.codec.jpeg_quality)};
   bool semantic = false;
   for (const auto& name : config.strategies) {
-    ctx.strategies.push_back(agent::strategy_from_string(name));
+    ctx.strategies.push_back(strategy_from_string(name));
     semantic = semantic || name == "semantic" || name == "full";
   }
-  if (semantic) ctx.model = agent::locate_model(config.selector.semantic.model);
+  if (semantic) ctx.model = vision::locate_model(config.selector.semantic.model, "segmenter model");
   ctx.orb.features = config.orb_features;
   std::vector<std::string> drones = config.drones;
   if (drones.empty())

@@ -11,7 +11,9 @@
 #include <sstream>
 
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/mission/experiment_config.hpp"
 #include "keyfleet/mission/link_shaping.hpp"
+#include "keyfleet/mission/mission_config.hpp"
 
 namespace keyfleet::mission {
 namespace {

@@ -12,6 +12,7 @@
 
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/mission/bandwidth_experiment.hpp"
+#include "keyfleet/mission/experiment_config.hpp"
 
 namespace keyfleet::mission {
 namespace {

@@ -1,4 +1,5 @@
 #include "keyfleet/mission/link_shaping.hpp"
+#include "keyfleet/mission/experiment_config.hpp"
 
 #include <fcntl.h>
 #include <signal.h>

@@ -1,4 +1,5 @@
 #include "keyfleet/mission/mission_runner.hpp"
+#include "keyfleet/mission/mission_config.hpp"
 
 #include <unistd.h>
 
@@ -15,6 +16,7 @@
 #include "keyfleet/common/scenario_truth.hpp"
 #include "keyfleet/common/sqlite.hpp"
 #include "keyfleet/mission/child_process.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 #include "keyfleet/scenario/scenario_generator.hpp"
 
 namespace keyfleet::mission {

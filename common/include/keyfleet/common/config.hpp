@@ -8,7 +8,9 @@
 
 namespace keyfleet {
 
-// How a process joins the DDS network (see DESIGN.md §3 for why these defaults).
+// How a process joins the DDS network. Fast DDS's own defaults announce on every interface by
+// multicast; these keep a one-machine mission on SHM and 127.0.0.1, and the discovery timings
+// avoid the multi-second stalls and the 20-s memory of a killed reader that the defaults give.
 struct DdsSettings {
   enum class Transport {
     kLocalhost,  // SHM + UDPv4 on 127.0.0.1 only, no multicast: one-machine missions and tests
@@ -22,10 +24,10 @@ struct DdsSettings {
   // only, on the non-loopback interfaces, so that processes in separate network namespaces
   // really use their links.
   bool shared_memory = true;
-  double lease_duration_s = 4.0;           // a silent peer is dropped after this long
-  double announcement_period_s = 1.0;      // participant announcements
-  int keyframe_history_depth = 5;          // KEEP_LAST depth of the keyframe writer
-  double heartbeat_period_s = 0.1;         // reliable writer heartbeat
+  double lease_duration_s = 4.0;       // a silent peer is dropped after this long
+  double announcement_period_s = 1.0;  // participant announcements
+  int keyframe_history_depth = 5;      // KEEP_LAST depth of the keyframe writer
+  double heartbeat_period_s = 0.1;     // reliable writer heartbeat
   // Keyframe writer's byte-rate cap (asynchronous publish through a FIFO flow controller,
   // 10 ms periods); 0 = unlimited. When capped, a full writer refuses a keyframe at once
   // and the outbox sends it again later.
@@ -69,7 +71,7 @@ struct TriggerConfig {
 struct QualityConfig {
   int size = 112;               // blur and brightness are measured at size x size
   int sharpness_width = 320;    // the sharpness is measured at this width
-  double sharpness_gate = 0.5;  // frames below it are not candidates (second seed)
+  double sharpness_gate = 0.5;  // frames below it are not candidates (Ma and Zhao 2017)
   double edge_contrast = 180;   // Kumar sharpness: summed first differences of an edge
   double sharp_ratio = 0.8;     // Kumar sharpness: ratio that makes an edge sharp
 };
@@ -87,7 +89,7 @@ struct SelectorConfig {
     kVslam,     // publish the V-SLAM keyframe itself
     kQuality,   // best quality in the window
     kSemantic,  // best text score over frames spread across the window
-    kFull,      // sharpness gate, top third by quality, best text score (first seed)
+    kFull,      // sharpness gate, top third by quality, best text score (Alonso et al. 2019)
   };
   Strategy strategy = Strategy::kFull;
   int density = 1;             // one keyframe per `density` V-SLAM keyframes
@@ -138,19 +140,44 @@ struct StationLimits {
   std::uint32_t max_height = 8192;             //   are rejected before decoding
 };
 
-// Reading the words in received keyframes (the station's TextReader).
+// Reading the words in received keyframes: the station's TextReader, and every tool that
+// measures it (`keyfleet ocr`, `keyfleet eval`, the benchmarks), so that what is measured is
+// what the station runs.
 struct TextReadingConfig {
-  bool enabled = true;
-  std::string engine = "tesseract";  // see `keyfleet ocr eval` for the engines and their figures
-  std::string tessdata_dir;          // empty = Debian's tesseract-ocr-eng data
+  bool enabled = true;  // the station reads text at all
+  // "tesseract": Tesseract on the whole image (sparse text); "mininet+tesseract": MiniNet
+  // finds text regions, Tesseract reads each as one line (`keyfleet ocr eval` compares them:
+  // on ICDAR 2015 train_sharp the whole-image reader reached F 32.3 % against 29.6 %).
+  std::string engine = "tesseract";
+  std::string tessdata_dir;  // empty = Debian's /usr/share/tesseract-ocr/5/tessdata
   std::string language = "eng";
-  double min_confidence = 0.7;  // 0..1; words below are not stored
-  int min_word_length = 3;      // characters; shorter readings are mostly texture noise
-  // Smaller keyframes are upscaled to this longer side before reading (px, 0 = never).
-  // On 640x480 street keyframes 1280 cost 5.7x the CPU (334 vs 59 ms a read) and read no
-  // more sign words (23 vs 21 of the demo's 74 keyframes): see bench_station.
+  // Tesseract's binarisation: 0 global Otsu, 1 tiled Otsu (Leptonica), 2 Sauvola. Scene
+  // photos mix light-on-dark and dark-on-light signs, which one global threshold loses.
+  int thresholding_method = 1;
+  double min_confidence = 0.7;  // 0..1; words below are dropped
+  int min_word_length = 3;      // characters (UTF-8 code points); shorter readings are mostly noise
+  int min_word_height = 8;      // pixels in the input image; smaller "words" are noise
+  // Smaller images are upscaled to this longer side before reading (px, 0 = never). On
+  // 640x480 street keyframes 1280 cost 5.7x the CPU (334 vs 59 ms a read) and read no more
+  // sign words (23 vs 21 of the demo's 74 keyframes, bench_station); small word crops need it.
   int min_long_side = 0;
+  int max_long_side = 0;  // larger images are downscaled to this longer side (px, 0 = never)
+  // Detector of mininet+tesseract: the segmenter model and the input widths it runs at (px,
+  // multiples of 64; the height keeps the image's aspect ratio), regions merged over the
+  // widths. The shipped MiniNet sees text of a limited range of heights: on ICDAR train_sharp
+  // (1280x720) one width gave F 0 % at 512, 28.6 % at 768, 7.1 % at 1024; 512 finds the large
+  // words of a 640x480 keyframe that 768 misses.
+  std::string segmenter_model = "mininet_text.onnx";
+  std::vector<int> segmenter_widths = {512, 768};
+  int threads = 1;              // OpenCV DNN threads for the segmenter
+  double region_padding = 0.3;  // each side of a region, as a fraction of its height
+  int region_line_height = 48;  // px a region's crop is scaled to before reading
+  int max_regions = 40;         // largest regions read per image (bounds the cost)
 };
+
+// How putative feature matches between two keyframes are verified geometrically: sparse Vector
+// Field Consensus, or OpenCV's robust estimators of a homography or a fundamental matrix.
+enum class VerifierKind { kVfc, kRansacHomography, kRansacFundamental };
 
 // Recognising places shared across keyframes and robots (ORB bag of words + verification).
 struct PlaceRecognitionConfig {
@@ -159,10 +186,10 @@ struct PlaceRecognitionConfig {
   // <bin>/../share/keyfleet/models/ like the agent's model.
   std::string vocabulary = "orb_vocabulary.bin";
   int orb_features = 1000;
-  int candidates = 4;             // top-k bag-of-words candidates verified geometrically
-  int min_inliers = 30;           // accepted with more inliers than this (second seed)
-  double min_inlier_ratio = 0.25; // and an inlier ratio above this
-  std::string verifier = "vfc";   // vfc | ransac_homography | ransac_fundamental
+  int candidates = 4;              // top-k bag-of-words candidates verified geometrically
+  int min_inliers = 30;            // accepted with more inliers than this (Ma and Zhao 2017)
+  double min_inlier_ratio = 0.25;  // and an inlier ratio above this
+  VerifierKind verifier = VerifierKind::kVfc;
   // Keyframes of the same robot closer in time than this are neighbours, not revisits.
   double same_robot_exclusion_s = 10.0;
 };
@@ -190,167 +217,25 @@ struct StationConfig {
   std::string log_level = "info";
 };
 
-// The scenario generator (`keyfleet scenario generate`): a street with shop signs, drones
-// flying along it on two 'days', camera effects with known parameters. Lengths in metres,
-// angles in degrees, times in seconds.
-struct StreetConfig {
-  double length_m = 160.0;
-  double width_m = 16.0;  // facade to facade
-  double facade_height_m = 12.0;
-  double building_min_width_m = 6.0;
-  double building_max_width_m = 14.0;
-  double sign_probability = 0.85;       // chance that a building carries a shop sign
-  double extra_sign_probability = 0.4;  // chance of a second, smaller sign
-  double place_length_m = 5.0;          // place ids bin the street in segments this long
-  double pole_spacing_m = 14.0;         // lamp posts along the kerbs (occluders); 0 = none
-  double tree_spacing_m = 22.0;         // trees along the kerbs (occluders); 0 = none
-};
-
-struct TextureConfig {
-  std::vector<std::string> photo_folders;           // real photos for facades (must exist)
-  std::vector<std::string> optional_photo_folders;  // used when present, else skipped
-  // Paths in a scenario file are relative to that file. Without photos, facades are procedural.
-  int max_photos = 60;             // at most this many photos are loaded
-  double photo_probability = 0.5;  // chance that a facade uses a photo when available
-  std::vector<std::string> font_folders = {"/usr/share/fonts/truetype",
-                                           "/usr/share/fonts/opentype"};
-  std::string word_list;  // one word a line; empty = the built-in shop words
-};
-
-struct DroneFlightConfig {
-  int count = 3;
-  int days = 2;  // drone i flies on day i % days
-  double speed_mps = 2.0;
-  double speed_jitter_mps = 0.3;  // per drone
-  double start_m = 8.0;           // where along the street the flights begin
-  double altitude_m = 5.0;
-  double altitude_jitter_m = 1.0;  // per drone and day
-  double lateral_offset_m = -1.0;  // from the street centre, + toward the left facade
-  double lateral_jitter_m = 1.5;
-  double view_yaw_deg = 55.0;         // camera yaw from the flight direction, toward the left
-  double pitch_deg = 8.0;             // camera pitch, + up
-  double heading_jitter_deg = 4.0;    // slow yaw wander
-  double shake_deg = 0.25;            // continuous high-frequency shake
-  double shake_burst_rate_hz = 0.08;  // random bursts of strong shake
-  double shake_burst_deg = 2.0;
-  double shake_burst_s = 0.6;
-};
-
-struct CameraEffectsConfig {
-  double horizontal_fov_deg = 70.0;
-  double shutter_fraction = 0.5;         // exposure time / frame period (sets motion blur)
-  double noise_sigma = 2.0;              // read noise, grey levels
-  double shot_noise = 0.4;               // photon noise scale: sigma = shot_noise * sqrt(level)
-  double vignetting = 0.25;              // brightness loss at the corners
-  double auto_exposure_lag_s = 0.6;      // time constant of the auto-exposure
-  double exposure_event_rate_hz = 0.06;  // random over/under-exposure events
-  double exposure_event_s = 0.5;
-  double over_exposure_gain = 2.4;
-  double under_exposure_gain = 0.35;
-  bool greyscale = false;
-  int jpeg_artifact_quality = 0;  // re-encode at this JPEG quality before saving; 0 = off
-};
-
-struct ScenarioConfig {
-  std::string name = "street";
-  std::uint64_t seed = 1;
-  std::uint64_t frames_per_drone = 600;
-  double fps = 30.0;
-  int width = 640;
-  int height = 480;
-  std::string image_format = "jpg";  // jpg | png
-  int image_quality = 92;            // jpg quality of the saved frames
-  StreetConfig street;
-  TextureConfig textures;
-  DroneFlightConfig drones;
-  CameraEffectsConfig camera;
-};
-
-struct MissionConfig {
-  std::string name = "mission";
-  int drones = 3;
-  std::string robot_id_prefix = "drone_";  // drone i is <prefix><i>
-  std::string run_root = "runs";           // each run gets <run_root>/<name>-<timestamp>/
-  std::optional<int> domain_id;            // default: derived from the process id
-  double agent_timeout_s = 900.0;          // an agent still running after this fails the mission
-  double station_drain_timeout_s = 60.0;   // after SIGTERM, the station must exit within this
-  // Replay a generated scenario: `scenario` names a scenario YAML (relative to the mission
-  // file) generated into the run folder; `scenario_dir` names one generated before. Either
-  // sets the drones (one agent per scenario drone, source kind scenario).
-  std::string scenario;
-  std::string scenario_dir;
-  AgentConfig agent;  // template for every drone; seed += drone index
-  StationConfig station;
-};
-
-// `keyfleet eval` (configs/eval.yaml): the first seed's Fig. 6 on a generated scenario.
-struct EvalConfig {
-  ScenarioConfig scenario;   // generated into <out>/scenario unless scenario_dir is set
-  std::string scenario_dir;  // a scenario generated before (relative to the file)
-  std::vector<std::string> strategies = {"vslam", "quality", "semantic", "full"};
-  // Fractions of the V-SLAM keyframes kept, spread evenly (the same for every strategy).
-  std::vector<double> densities = {1.0, 0.75, 0.5, 0.35, 0.2, 0.1};
-  std::vector<std::string> drones;  // empty = every drone of the scenario
-  SelectorConfig selector;          // the agent's selection; strategy and density set per point
-  CodecConfig codec;                // the agent's JPEG quality (bytes sent)
-  std::string vocabulary = "orb_vocabulary.bin";  // place recognition (a bare name: shipped)
-  int orb_features = 1000;
-  int query_every = 10;            // place queries: every n-th frame of the query drone
-  double place_tolerance_m = 5.0;  // a retrieved keyframe is right within this street distance
-  int ocr_threads = 2;             // text readers at once (one Tesseract each)
-};
-
-// One link of the bandwidth experiment, per drone (not shared between drones).
-struct LinkProfileConfig {
-  std::string name = "unlimited";  // [A-Za-z0-9_.-]
-  double rate_kbit_s = 0;          // 0 = unlimited
-  double delay_ms = 0;             // netns links only, and only where the kernel has netem
-  double loss_percent = 0;         // netns links only, and only where the kernel has netem
-};
-
-// `keyfleet experiment bandwidth`: one mission per drone count x link kind x profile.
-struct BandwidthExperimentConfig {
-  std::string name = "bandwidth";
-  std::string run_root = "runs";  // the experiment's folder: <run_root>/<name>-<time>-<pid>/
-  std::vector<int> drones = {2, 4, 8};
-  std::vector<LinkProfileConfig> profiles = {LinkProfileConfig{}};
-  // flow_control: each agent's DDS flow controller at the profile's rate (localhost transport).
-  // netns (root only, else skipped with the reason): each drone in its own network namespace,
-  // a veth link to the station's namespace shaped by tbf (+ netem where the kernel has it).
-  std::vector<std::string> links = {"flow_control", "netns"};
-  // netns: the agents' DDS cap as a fraction of the link rate, so that RTPS, UDP and IP
-  // headers fit under it; at 0.9 a 500 kbit/s tbf link overflowed and most bytes on the wire
-  // were repairs (0 = no DDS cap, the link alone limits).
-  double netns_dds_cap_fraction = 0.7;
-  double bin_s = 1.0;                     // bandwidth-over-time bins (s)
-  std::string python = "/usr/bin/python3";  // runs tools/report/bandwidth_report.py (matplotlib)
-  MissionConfig mission;  // agent and station templates; name and drones are set per mission
-};
-
 // Loaders throw ConfigError naming the file, the key and what is allowed.
 AgentConfig load_agent_config(const std::string& path);
 StationConfig load_station_config(const std::string& path);
-MissionConfig load_mission_config(const std::string& path);
-ScenarioConfig load_scenario_config(const std::string& path);
-BandwidthExperimentConfig load_bandwidth_experiment_config(const std::string& path);
-EvalConfig load_eval_config(const std::string& path);
 
 std::string to_yaml(const AgentConfig& config);
 std::string to_yaml(const StationConfig& config);
-std::string to_yaml(const MissionConfig& config);
-std::string to_yaml(const ScenarioConfig& config);
-std::string to_yaml(const BandwidthExperimentConfig& config);
-std::string to_yaml(const EvalConfig& config);
 
 // Parses YAML text (for tests and generated configs); `origin` names it in errors.
 AgentConfig parse_agent_config(const std::string& text, const std::string& origin);
 StationConfig parse_station_config(const std::string& text, const std::string& origin);
-MissionConfig parse_mission_config(const std::string& text, const std::string& origin);
-ScenarioConfig parse_scenario_config(const std::string& text, const std::string& origin);
-BandwidthExperimentConfig parse_bandwidth_experiment_config(const std::string& text,
-                                                            const std::string& origin);
-EvalConfig parse_eval_config(const std::string& text, const std::string& origin);
 
 bool is_valid_robot_id(const std::string& robot_id);
+
+// The names the YAML files give the choices, for the tools that take them on a command line.
+std::optional<SelectorConfig::Strategy> selection_strategy(const std::string& name);
+std::string selection_strategy_choices();  // "vslam|quality|semantic|full"
+std::string to_string(SelectorConfig::Strategy strategy);
+std::optional<VerifierKind> verifier_kind(const std::string& name);
+std::string verifier_kind_choices();
+std::string to_string(VerifierKind kind);
 
 }  // namespace keyfleet

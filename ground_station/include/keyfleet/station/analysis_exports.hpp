@@ -2,8 +2,8 @@
 #include <string>
 
 #include "keyfleet/station/analysis_store.hpp"
+#include "keyfleet/station/map/topo_map.hpp"
 #include "keyfleet/station/station_analysis.hpp"
-#include "keyfleet/station/topo_map.hpp"
 
 namespace keyfleet::station {
 

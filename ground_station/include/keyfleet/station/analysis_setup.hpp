@@ -3,7 +3,7 @@
 
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/station/place_recognizer.hpp"
-#include "keyfleet/station/text_reader.hpp"
+#include "keyfleet/station/text/text_reader.hpp"
 
 namespace keyfleet::station {
 

@@ -6,8 +6,8 @@
 #include <vector>
 
 #include "keyfleet/common/types.hpp"
-#include "keyfleet/station/orb_extractor.hpp"
-#include "keyfleet/station/text_reader.hpp"
+#include "keyfleet/station/places/orb_extractor.hpp"
+#include "keyfleet/station/text/text_reader.hpp"
 
 namespace keyfleet::station {
 

@@ -8,9 +8,9 @@
 
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/station/analysis_types.hpp"
-#include "keyfleet/station/bow_database.hpp"
-#include "keyfleet/station/match_verifier.hpp"
-#include "keyfleet/station/orb_vocabulary.hpp"
+#include "keyfleet/station/geometry/match_verifier.hpp"
+#include "keyfleet/station/places/bow_database.hpp"
+#include "keyfleet/station/places/orb_vocabulary.hpp"
 
 namespace keyfleet::station {
 
@@ -39,7 +39,9 @@ PlaceFilter not_a_recent_neighbour(const KeyframeKey& query, std::int64_t captur
                                    double exclusion_s);
 
 // ORB bag of words (inverted index) for candidates, the direct index for matching, and a
-// geometric verifier (VFC or RANSAC) to accept them (DESIGN §2.5, second seed).
+// geometric verifier (VFC or RANSAC) to accept them: the top `candidates` are verified and the
+// one with most inliers is kept when it has more than min_inliers at min_inlier_ratio (Ma and
+// Zhao, IEEE Access 2017).
 class OrbBowPlaceRecognizer final : public PlaceRecognizer {
  public:
   OrbBowPlaceRecognizer(std::shared_ptr<const OrbVocabulary> vocabulary,

@@ -6,8 +6,8 @@
 #include "keyfleet/station/analysis_pool.hpp"
 #include "keyfleet/station/analysis_store.hpp"
 #include "keyfleet/station/keyframe_store.hpp"
+#include "keyfleet/station/map/topo_map.hpp"
 #include "keyfleet/station/place_recognizer.hpp"
-#include "keyfleet/station/topo_map.hpp"
 
 namespace keyfleet::station {
 

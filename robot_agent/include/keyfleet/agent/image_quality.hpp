@@ -1,5 +1,5 @@
 #pragma once
-// Per-frame image quality, as the first seed (blur, exposure) and the second seed
+// Per-frame image quality, as Alonso et al. 2019 (blur, exposure) and Ma and Zhao 2017
 // (sharpness) define it. The free functions are pure; the workspace types only hold buffers
 // (and tables) that the per-frame path reuses, one per selector: not shared between threads.
 #include <opencv2/core.hpp>
@@ -42,8 +42,9 @@ struct SharpnessScratch {
 // one direction and leaves the other sharp, and the combined score then stays high (measured
 // on the ten ICDAR photos at 320 px: 8-px blurred copies 0.59-0.89 against 0.86-0.98 sharp).
 // With min(Rx, Ry) and these thresholds: sharp >= 0.75, 4 px <= 0.52, 8 px <= 0.27, so the
-// seed's 0.5 gate separates. One pass over 16-bit rows after the median (no float images);
-// the same counts as the straightforward OpenCV formulation (filter2D, boxFilter, compare).
+// 0.5 gate of Ma and Zhao (IEEE Access 2017) separates. One pass over 16-bit rows after the median
+// (no float images); the same counts as the straightforward OpenCV formulation (filter2D,
+// boxFilter, compare).
 double kumar_sharpness(const cv::Mat& grey, const SharpnessParams& params,
                        SharpnessScratch& scratch);
 double kumar_sharpness(const cv::Mat& grey, const SharpnessParams& params = {});

@@ -3,12 +3,12 @@
 #include <memory>
 #include <set>
 
+#include "keyfleet/agent/bandwidth_ledger.hpp"
 #include "keyfleet/agent/keyframe_selector.hpp"
 #include "keyfleet/agent/outbox.hpp"
-#include "keyfleet/common/bandwidth_ledger.hpp"
+#include "keyfleet/agent/stage_clock.hpp"
 #include "keyfleet/common/image_codec.hpp"
 #include "keyfleet/common/logging.hpp"
-#include "keyfleet/common/stage_clock.hpp"
 #include "keyfleet/common/transport.hpp"
 
 namespace keyfleet::agent {

@@ -8,9 +8,9 @@
 #include "keyfleet/agent/frame_source.hpp"
 #include "keyfleet/agent/image_quality.hpp"
 #include "keyfleet/agent/keyframe_trigger.hpp"
-#include "keyfleet/agent/text_segmenter.hpp"
+#include "keyfleet/agent/stage_clock.hpp"
 #include "keyfleet/common/config.hpp"
-#include "keyfleet/common/stage_clock.hpp"
+#include "keyfleet/vision/text_segmenter.hpp"
 
 namespace keyfleet::agent {
 
@@ -40,7 +40,7 @@ class KeyframeSelector {
   virtual std::vector<Selection> finish() = 0;
 };
 
-// The first seed's hierarchical selection around V-SLAM keyframes (DESIGN.md §2.4). With the
+// Hierarchical selection around V-SLAM keyframes (Alonso et al., ICRA 2019). With the
 // last selection at frame s and a new V-SLAM keyframe at k, the window holds W = (k - s) / 2
 // frames, two thirds before k and one third after (so W/3 frames are buffered). `quality`
 // picks the best blur x brightness score (each normalised by its maximum in the window)
@@ -51,7 +51,7 @@ class KeyframeSelector {
 class HierarchicalSelector final : public KeyframeSelector {
  public:
   HierarchicalSelector(const SelectorConfig& config, std::unique_ptr<KeyframeTrigger> trigger,
-                       std::unique_ptr<TextSegmenter> segmenter, StageClock* clock);
+                       std::unique_ptr<vision::TextSegmenter> segmenter, StageClock* clock);
   SelectorStep push(const Frame& frame) override;
   std::vector<Selection> finish() override;
 
@@ -71,7 +71,7 @@ class HierarchicalSelector final : public KeyframeSelector {
 
   SelectorConfig config_;
   std::unique_ptr<KeyframeTrigger> trigger_;
-  std::unique_ptr<TextSegmenter> segmenter_;
+  std::unique_ptr<vision::TextSegmenter> segmenter_;
   StageClock* clock_;
   StageClock own_clock_;
   std::deque<Scored> buffer_;

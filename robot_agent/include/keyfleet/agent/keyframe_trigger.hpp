@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "keyfleet/agent/frame_source.hpp"
-#include "keyfleet/agent/orb_features.hpp"
+#include "keyfleet/agent/grid_orb_extractor.hpp"
 
 namespace keyfleet::agent {
 
@@ -40,7 +40,7 @@ class ListTrigger final : public KeyframeTrigger {
 };
 
 struct OrbSlamTriggerParams {
-  OrbParams orb;
+  GridOrbParams orb;
   double image_scale = 0.5;     // frames are resized by this before feature extraction
   int max_frames = 30;          // ORB-SLAM2 mMaxFrames (= fps)
   int mapping_busy_frames = 2;  // local mapping is busy this long after a keyframe

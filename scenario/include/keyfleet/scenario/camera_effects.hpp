@@ -5,6 +5,7 @@
 #include <string>
 
 #include "keyfleet/common/config.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 
 namespace keyfleet::scenario {
 

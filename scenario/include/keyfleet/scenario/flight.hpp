@@ -4,6 +4,7 @@
 
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/scenario/plane_renderer.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 
 namespace keyfleet::scenario {
 

@@ -5,6 +5,7 @@
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/scenario_truth.hpp"
 #include "keyfleet/scenario/plane_renderer.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 #include "keyfleet/scenario/street_world.hpp"
 
 namespace keyfleet::scenario {

@@ -9,6 +9,7 @@
 
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/scenario_truth.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 
 namespace keyfleet::scenario {
 

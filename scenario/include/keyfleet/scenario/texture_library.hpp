@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "keyfleet/common/config.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
 
 namespace keyfleet::scenario {
 

@@ -1,15 +1,16 @@
 #pragma once
-// `keyfleet eval`: the first seed's Fig. 6 on a generated two-day multi-drone scenario. For
-// each strategy and kept fraction of the V-SLAM keyframes: (a) words the station's text
-// reader reads in the selected keyframes, against the words fully visible in the sequence,
-// (b) place recognition top-1/top-5 from one drone's frames against another day's drone's
-// selected keyframes, (c) bytes sent.
+// `keyfleet eval`: Fig. 6 of Alonso et al. (ICRA 2019) on a generated two-day multi-drone scenario.
+// For each strategy and kept fraction of the V-SLAM keyframes: (a) words the station's text reader
+// reads in the selected keyframes, against the words fully visible in the sequence, (b) place
+// recognition top-1/top-5 from one drone's frames against another day's drone's selected keyframes,
+// (c) bytes sent.
 #include <cstdint>
 #include <string>
 #include <vector>
 
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
+#include "keyfleet/eval/eval_config.hpp"
 #include "keyfleet/eval/metrics.hpp"
 
 namespace keyfleet::eval {

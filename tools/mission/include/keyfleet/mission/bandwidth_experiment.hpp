@@ -10,6 +10,7 @@
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/shutdown_signal.hpp"
 #include "keyfleet/mission/bandwidth_metrics.hpp"
+#include "keyfleet/mission/experiment_config.hpp"
 #include "keyfleet/mission/mission_runner.hpp"
 
 namespace keyfleet::mission {

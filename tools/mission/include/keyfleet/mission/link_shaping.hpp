@@ -9,6 +9,7 @@
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/mission/bandwidth_metrics.hpp"
+#include "keyfleet/mission/experiment_config.hpp"
 
 namespace keyfleet::mission {
 

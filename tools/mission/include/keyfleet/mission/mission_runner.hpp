@@ -7,6 +7,7 @@
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/shutdown_signal.hpp"
+#include "keyfleet/mission/mission_config.hpp"
 
 namespace keyfleet::mission {
 

@@ -1,0 +1,226 @@
+#include "dds_participant.hpp"
+
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
+#include <fastrtps/utils/IPLocator.h>
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/rtps/flowcontrol/FlowControllerDescriptor.hpp>
+
+#include <arpa/inet.h>
+#include <ifaddrs.h>
+#include <net/if.h>
+#include <netinet/in.h>
+
+#include <algorithm>
+#include <limits>
+#include <vector>
+
+#include "keyfleet/common/error.hpp"
+
+namespace keyfleet::dds {
+namespace {
+
+using eprosima::fastrtps::Duration_t;
+using eprosima::fastrtps::rtps::IPLocator;
+using eprosima::fastrtps::rtps::Locator_t;
+
+constexpr std::uint32_t kShmSegmentBytes = 8u << 20;
+constexpr std::uint32_t kUdpBufferBytes = 4u << 20;
+constexpr std::uint32_t kMaxInitialPeersRange = 16;
+// The link cap: flow-controller periods longer than 10 ms undershot the cap by up to half here.
+constexpr char kLinkCapName[] = "keyfleet_link_cap";
+constexpr std::uint64_t kLinkCapPeriodMs = 10;
+constexpr std::int32_t kCappedWriterSamples = 2;
+constexpr long double kCappedWriterBlockingS = 0.005;
+
+Locator_t udp_locator(const std::string& address) {
+  Locator_t locator;
+  locator.kind = LOCATOR_KIND_UDPv4;
+  if (!IPLocator::setIPv4(locator, address) || !IPLocator::isIPv4(address))
+    throw StartupError("dds.initial_peers: '" + address + "' is not an IPv4 address");
+  return locator;
+}
+
+std::vector<std::string> non_loopback_ipv4_addresses() {
+  std::vector<std::string> addresses;
+  ifaddrs* list = nullptr;
+  if (::getifaddrs(&list) != 0) return addresses;
+  for (const ifaddrs* it = list; it; it = it->ifa_next) {
+    if (!it->ifa_addr || it->ifa_addr->sa_family != AF_INET || (it->ifa_flags & IFF_LOOPBACK))
+      continue;
+    char text[INET_ADDRSTRLEN] = {};
+    const auto* in = reinterpret_cast<const sockaddr_in*>(it->ifa_addr);
+    if (::inet_ntop(AF_INET, &in->sin_addr, text, sizeof text)) addresses.emplace_back(text);
+  }
+  ::freeifaddrs(list);
+  return addresses;
+}
+
+fdds::DomainParticipantQos participant_qos(const DdsSettings& s, const std::string& name) {
+  fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
+  qos.name(name);
+  auto& discovery = qos.wire_protocol().builtin.discovery_config;
+  discovery.leaseDuration = Duration_t(static_cast<long double>(s.lease_duration_s));
+  discovery.leaseDuration_announcementperiod =
+      Duration_t(static_cast<long double>(s.announcement_period_s));
+
+  if (s.transport == DdsSettings::Transport::kLocalhost) {
+    // No built-in transports: the defaults announce on every interface by multicast.
+    qos.transport().use_builtin_transports = false;
+    auto shm = std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>();
+    shm->segment_size(kShmSegmentBytes);
+    auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+    udp->interfaceWhiteList.emplace_back("127.0.0.1");
+    udp->sendBufferSize = kUdpBufferBytes;
+    udp->receiveBufferSize = kUdpBufferBytes;
+    udp->maxInitialPeersRange = kMaxInitialPeersRange;
+    qos.transport().user_transports.push_back(shm);
+    qos.transport().user_transports.push_back(udp);
+    qos.wire_protocol().builtin.initialPeersList.push_back(udp_locator("127.0.0.1"));
+    qos.wire_protocol().builtin.metatrafficUnicastLocatorList.push_back(udp_locator("127.0.0.1"));
+  } else {
+    if (!s.shared_memory) {
+      // Built-in transports include shared memory, which crosses network namespaces.
+      qos.transport().use_builtin_transports = false;
+      auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+      udp->sendBufferSize = kUdpBufferBytes;
+      udp->receiveBufferSize = kUdpBufferBytes;
+      udp->maxInitialPeersRange = kMaxInitialPeersRange;
+      // Loopback carries nothing between namespaces, but announcing it makes a peer in another
+      // namespace (with the same ports) talk to itself: only the real interfaces.
+      for (const auto& address : non_loopback_ipv4_addresses())
+        udp->interfaceWhiteList.push_back(address);
+      qos.transport().user_transports.push_back(udp);
+    }
+    for (const auto& peer : s.initial_peers)
+      qos.wire_protocol().builtin.initialPeersList.push_back(udp_locator(peer));
+  }
+  if (s.max_bytes_per_s > 0) {
+    auto cap = std::make_shared<eprosima::fastdds::rtps::FlowControllerDescriptor>();
+    cap->name = kLinkCapName;
+    cap->scheduler = eprosima::fastdds::rtps::FlowControllerSchedulerPolicy::FIFO;
+    cap->period_ms = kLinkCapPeriodMs;
+    const std::uint64_t per_period = s.max_bytes_per_s * kLinkCapPeriodMs / 1000;
+    cap->max_bytes_per_period = static_cast<std::int32_t>(
+        std::clamp<std::uint64_t>(per_period, 1, std::numeric_limits<std::int32_t>::max()));
+    qos.flow_controllers().push_back(cap);
+  }
+  return qos;
+}
+
+}  // namespace
+
+Participant::Participant(const DdsSettings& settings, const std::string& name, Logger logger)
+    : settings_(settings), logger_(std::move(logger)) {
+  auto* factory = fdds::DomainParticipantFactory::get_instance();
+  participant_ = factory->create_participant(static_cast<fdds::DomainId_t>(settings.domain_id),
+                                             participant_qos(settings, name));
+  if (!participant_)
+    throw StartupError("cannot create DDS participant on domain " +
+                       std::to_string(settings.domain_id) + " (see the Fast DDS errors above)");
+  fdds::PublisherQos pub_qos = fdds::PUBLISHER_QOS_DEFAULT;
+  pub_qos.partition().push_back(settings.partition.c_str());
+  publisher_ = participant_->create_publisher(pub_qos);
+  fdds::SubscriberQos sub_qos = fdds::SUBSCRIBER_QOS_DEFAULT;
+  sub_qos.partition().push_back(settings.partition.c_str());
+  subscriber_ = participant_->create_subscriber(sub_qos);
+  if (!publisher_ || !subscriber_) {
+    factory->delete_participant(participant_);
+    throw StartupError("cannot create DDS publisher/subscriber for partition '" +
+                       settings.partition + "'");
+  }
+  logger_->info("DDS participant '{}' on domain {} partition '{}' ({})", name, settings.domain_id,
+                settings.partition,
+                settings.transport == DdsSettings::Transport::kLocalhost ? "localhost only"
+                : settings.shared_memory                                 ? "network"
+                                                                         : "network, UDPv4 only");
+  if (settings.max_bytes_per_s > 0)
+    logger_->info("keyframe writer capped at {} bytes/s (flow controller, {} ms periods)",
+                  settings.max_bytes_per_s, kLinkCapPeriodMs);
+}
+
+Participant::~Participant() {
+  if (!participant_) return;
+  participant_->delete_contained_entities();
+  fdds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+}
+
+fdds::Topic* Participant::topic(const std::string& name, fdds::TypeSupport type) {
+  if (type.register_type(participant_) != ReturnCode_t::RETCODE_OK)
+    throw StartupError("cannot register DDS type " + type.get_type_name());
+  fdds::Topic* topic =
+      participant_->create_topic(name, type.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
+  if (!topic) throw StartupError("cannot create DDS topic " + name);
+  return topic;
+}
+
+fdds::DataWriter* Participant::writer(fdds::Topic* topic, Stream stream) {
+  fdds::DataWriterQos qos = publisher_->get_default_datawriter_qos();
+  qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+  qos.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
+  qos.data_sharing().off();
+  qos.reliable_writer_qos().times.heartbeatPeriod =
+      Duration_t(static_cast<long double>(settings_.heartbeat_period_s));
+  qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+  switch (stream) {
+    case Stream::kKeyframes:
+      qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+      qos.history().depth = settings_.keyframe_history_depth;
+      if (settings_.max_bytes_per_s > 0) {
+        // Under a cap a small KEEP_LAST starves and a deep queue only adds latency: keep
+        // two samples and refuse a write quickly, the outbox sends it again later.
+        qos.publish_mode().kind = fdds::ASYNCHRONOUS_PUBLISH_MODE;
+        qos.publish_mode().flow_controller_name = kLinkCapName;
+        qos.history().kind = fdds::KEEP_ALL_HISTORY_QOS;
+        qos.resource_limits().max_samples = kCappedWriterSamples;
+        qos.resource_limits().max_samples_per_instance = kCappedWriterSamples;
+        qos.resource_limits().allocated_samples = kCappedWriterSamples;
+        qos.reliability().max_blocking_time = Duration_t(kCappedWriterBlockingS);
+      }
+      break;
+    case Stream::kStats:
+      qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+      qos.history().depth = 1;
+      break;
+    case Stream::kAcks:
+      qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+      qos.history().depth = 256;
+      break;
+  }
+  fdds::DataWriter* writer = publisher_->create_datawriter(topic, qos);
+  if (!writer) throw StartupError("cannot create DDS writer on " + topic->get_name());
+  return writer;
+}
+
+fdds::DataReader* Participant::reader(fdds::Topic* topic, Stream stream) {
+  fdds::DataReaderQos qos = subscriber_->get_default_datareader_qos();
+  qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+  qos.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
+  qos.data_sharing().off();
+  switch (stream) {
+    case Stream::kKeyframes:
+      // KEEP_ALL bounded: when the station falls behind, the writer waits, nothing is lost.
+      qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+      qos.history().kind = fdds::KEEP_ALL_HISTORY_QOS;
+      qos.resource_limits().max_samples = 256;
+      qos.resource_limits().max_samples_per_instance = 256;
+      qos.resource_limits().allocated_samples = 16;
+      break;
+    case Stream::kStats:
+      qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+      qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+      qos.history().depth = 64;
+      break;
+    case Stream::kAcks:
+      qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+      qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+      qos.history().depth = 1024;
+      break;
+  }
+  fdds::DataReader* reader = subscriber_->create_datareader(topic, qos);
+  if (!reader) throw StartupError("cannot create DDS reader on " + topic->get_name());
+  reader->get_statuscondition().set_enabled_statuses(fdds::StatusMask::data_available());
+  return reader;
+}
+
+}  // namespace keyfleet::dds

@@ -1,0 +1,39 @@
+#pragma once
+// The text-reading seam of the ground station: words (text, confidence, box) read from a
+// keyframe. Real engines use Tesseract 5; tests may substitute their own reader.
+#include <opencv2/core.hpp>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "keyfleet/common/config.hpp"
+
+namespace keyfleet::station {
+
+struct ReadWord {
+  std::string text;      // UTF-8
+  float confidence = 0;  // 0..1
+  cv::Rect box;          // in the input image's pixels
+};
+
+class TextReader {
+ public:
+  virtual ~TextReader() = default;
+  // Never throws on a bad image (empty, tiny, wrong type): returns no words.
+  virtual std::vector<ReadWord> read(const cv::Mat& bgr) = 0;
+  virtual std::string name() const = 0;
+};
+
+// The engine `config.engine` names (`enabled` is the caller's business). Throws StartupError on
+// an unknown engine, a setting out of range, missing or unreadable traineddata or a bad model.
+std::unique_ptr<TextReader> make_text_reader(const TextReadingConfig& config);
+
+// The engine names make_text_reader accepts, in the order `keyfleet ocr eval` compares them.
+std::vector<std::string> text_reader_engines();
+
+// The junk filter shared by the engines: at least `min_word_length` characters and
+// `min_word_height` pixels, confidence at least `min_confidence`, half or more letters/digits.
+bool keep_word(const ReadWord& word, const TextReadingConfig& config);
+
+}  // namespace keyfleet::station

@@ -1,0 +1,39 @@
+#pragma once
+// Runs a station::TextReader over the shared data sets and times it (for `keyfleet ocr eval`, tests
+// and benchmarks).
+#include <opencv2/core.hpp>
+
+#include <cstddef>
+#include <string>
+
+#include "keyfleet/eval/text_eval.hpp"
+#include "keyfleet/station/text/text_reader.hpp"
+
+namespace keyfleet::eval {
+
+struct EndToEndResult {
+  EndToEndCounts counts;
+  std::size_t images = 0;
+  double median_ms = 0;  // per image, wall clock
+};
+
+// `set_dir` holds images/img_N.jpg and gt/gt_img_N.txt. `max_images` 0 = all (sorted by N).
+// Throws StartupError if the folder or a ground-truth file is missing or unreadable.
+EndToEndResult evaluate_end_to_end(station::TextReader& reader, const std::string& set_dir,
+                                   std::size_t max_images = 0, const EndToEndParams& params = {});
+
+struct WordAccuracyResult {
+  std::size_t words = 0;
+  std::size_t correct = 0;  // reading equals the label, case-insensitively
+  double median_ms = 0;
+  double accuracy() const { return words ? double(correct) / double(words) : 0.0; }
+};
+
+// `words_dir` holds labels.json and imgs/. Throws StartupError if they are missing.
+WordAccuracyResult evaluate_cropped_words(station::TextReader& reader,
+                                          const std::string& words_dir);
+
+// Median wall-clock milliseconds of `repetitions` reads of `image` (after one warm-up read).
+double median_read_ms(station::TextReader& reader, const cv::Mat& image, int repetitions);
+
+}  // namespace keyfleet::eval

@@ -1,0 +1,122 @@
+#include "keyfleet/eval/segmenter_eval.hpp"
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "keyfleet/common/error.hpp"
+
+namespace keyfleet::eval {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Counts {
+  double tp = 0, fp = 0, fn = 0;
+  std::size_t images = 0;
+  void add(const cv::Mat& predicted, const cv::Mat& truth) {
+    tp += cv::countNonZero(predicted & truth);
+    fp += cv::countNonZero(predicted & ~truth);
+    fn += cv::countNonZero(~predicted & truth);
+    ++images;
+  }
+  SegmentationScores scores() const {
+    SegmentationScores s;
+    s.images = images;
+    s.recall = tp / std::max(1.0, tp + fn);
+    s.precision = tp / std::max(1.0, tp + fp);
+    s.iou = tp / std::max(1.0, tp + fp + fn);
+    return s;
+  }
+};
+
+std::vector<fs::path> images_in(const std::string& folder, std::size_t max_images) {
+  if (!fs::is_directory(folder)) throw StartupError("no image folder " + folder);
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(folder))
+    if (entry.path().extension() == ".jpg") files.push_back(entry.path());
+  std::sort(files.begin(), files.end());
+  if (max_images && files.size() > max_images) files.resize(max_images);
+  return files;
+}
+
+void score_one(vision::TextSegmenter& segmenter, const cv::Mat& image, const cv::Mat& truth_full,
+               Counts& counts) {
+  const cv::Mat predicted = segmenter.segment({image}).at(0);
+  cv::Mat truth;
+  cv::resize(truth_full, truth, predicted.size(), 0, 0, cv::INTER_NEAREST);
+  counts.add(predicted > 0, truth > 0);
+}
+
+}  // namespace
+
+SegmentationScores evaluate_on_pairs(vision::TextSegmenter& segmenter, const std::string& folder,
+                                     std::size_t max_images) {
+  Counts counts;
+  for (const auto& path : images_in((fs::path(folder) / "images").string(), max_images)) {
+    const fs::path mask = fs::path(folder) / "masks" / (path.stem().string() + ".png");
+    const cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
+    const cv::Mat truth = cv::imread(mask.string(), cv::IMREAD_GRAYSCALE);
+    if (image.empty() || truth.empty()) throw StartupError("unreadable pair " + path.string());
+    score_one(segmenter, image, truth, counts);
+  }
+  return counts.scores();
+}
+
+SegmentationScores evaluate_on_icdar(vision::TextSegmenter& segmenter, const std::string& images,
+                                     const std::string& ground_truth, std::size_t max_images) {
+  Counts counts;
+  for (const auto& path : images_in(images, max_images)) {
+    const cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
+    if (image.empty()) throw StartupError("unreadable image " + path.string());
+    cv::Mat truth = cv::Mat::zeros(image.size(), CV_8UC1);
+    std::ifstream gt(fs::path(ground_truth) / ("gt_" + path.stem().string() + ".txt"));
+    std::string line;
+    while (std::getline(gt, line)) {
+      if (line.size() >= 3 && static_cast<unsigned char>(line[0]) == 0xEF) line = line.substr(3);
+      std::replace(line.begin(), line.end(), ',', ' ');
+      std::istringstream fields(line);
+      std::vector<cv::Point> quad(4);
+      bool ok = true;
+      for (auto& p : quad) ok = ok && static_cast<bool>(fields >> p.x >> p.y);
+      if (ok) cv::fillPoly(truth, std::vector<std::vector<cv::Point>>{quad}, 255);
+    }
+    score_one(segmenter, image, truth, counts);
+  }
+  return counts.scores();
+}
+
+double median_forward_ms(vision::TextSegmenter& segmenter, int repetitions) {
+  return median_forward_ms(std::vector<vision::TextSegmenter*>{&segmenter}, repetitions).at(0);
+}
+
+std::vector<double> median_forward_ms(const std::vector<vision::TextSegmenter*>& segmenters,
+                                      int repetitions) {
+  std::vector<cv::Mat> frames;
+  for (vision::TextSegmenter* s : segmenters) {
+    frames.emplace_back(s->info().input_size, CV_8UC3, cv::Scalar(90, 120, 150));
+    s->segment({frames.back()});  // warm-up
+  }
+  std::vector<std::vector<double>> ms(segmenters.size());
+  for (int i = 0; i < repetitions; ++i)
+    for (std::size_t k = 0; k < segmenters.size(); ++k) {
+      const auto start = std::chrono::steady_clock::now();
+      segmenters[k]->segment({frames[k]});
+      ms[k].push_back(
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+              .count());
+    }
+  std::vector<double> medians;
+  for (auto& m : ms) {
+    std::nth_element(m.begin(), m.begin() + long(m.size() / 2), m.end());
+    medians.push_back(m.empty() ? 0.0 : m[m.size() / 2]);
+  }
+  return medians;
+}
+
+}  // namespace keyfleet::eval

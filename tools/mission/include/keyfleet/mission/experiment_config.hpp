@@ -1,0 +1,42 @@
+#pragma once
+// `keyfleet experiment bandwidth`, loaded from YAML by experiment_config.cpp.
+#include <string>
+#include <vector>
+
+#include "keyfleet/mission/mission_config.hpp"
+
+namespace keyfleet {
+
+// One link of the bandwidth experiment, per drone (not shared between drones).
+struct LinkProfileConfig {
+  std::string name = "unlimited";  // [A-Za-z0-9_.-]
+  double rate_kbit_s = 0;          // 0 = unlimited
+  double delay_ms = 0;             // netns links only, and only where the kernel has netem
+  double loss_percent = 0;         // netns links only, and only where the kernel has netem
+};
+
+// `keyfleet experiment bandwidth`: one mission per drone count x link kind x profile.
+struct BandwidthExperimentConfig {
+  std::string name = "bandwidth";
+  std::string run_root = "runs";  // the experiment's folder: <run_root>/<name>-<time>-<pid>/
+  std::vector<int> drones = {2, 4, 8};
+  std::vector<LinkProfileConfig> profiles = {LinkProfileConfig{}};
+  // flow_control: each agent's DDS flow controller at the profile's rate (localhost transport).
+  // netns (root only, else skipped with the reason): each drone in its own network namespace,
+  // a veth link to the station's namespace shaped by tbf (+ netem where the kernel has it).
+  std::vector<std::string> links = {"flow_control", "netns"};
+  // netns: the agents' DDS cap as a fraction of the link rate, so that RTPS, UDP and IP
+  // headers fit under it; at 0.9 a 500 kbit/s tbf link overflowed and most bytes on the wire
+  // were repairs (0 = no DDS cap, the link alone limits).
+  double netns_dds_cap_fraction = 0.7;
+  double bin_s = 1.0;                       // bandwidth-over-time bins (s)
+  std::string python = "/usr/bin/python3";  // runs tools/report/bandwidth_report.py (matplotlib)
+  MissionConfig mission;  // agent and station templates; name and drones are set per mission
+};
+
+BandwidthExperimentConfig load_bandwidth_experiment_config(const std::string& path);
+BandwidthExperimentConfig parse_bandwidth_experiment_config(const std::string& text,
+                                                            const std::string& origin);
+std::string to_yaml(const BandwidthExperimentConfig& config);
+
+}  // namespace keyfleet

@@ -1,0 +1,53 @@
+#include "keyfleet/mission/experiment_config.hpp"
+
+#include "keyfleet/common/config_yaml.hpp"
+
+namespace keyfleet {
+
+template <class V>
+void visit(V& v, LinkProfileConfig& c) {
+  v.field("name", c.name, file_name_check(32));
+  v.field("rate_kbit_s", c.rate_kbit_s, between(0.0, 1e7));
+  v.field("delay_ms", c.delay_ms, between(0.0, 10000.0));
+  v.field("loss_percent", c.loss_percent, between(0.0, 100.0));
+}
+
+template <class V>
+void visit(V& v, BandwidthExperimentConfig& c) {
+  v.field("name", c.name);
+  v.field("run_root", c.run_root);
+  v.field("drones", c.drones, Check<std::vector<int>>([](const std::vector<int>& counts) {
+            for (int n : counts)
+              if (n < 1 || n > 64) return std::string("every count must be between 1 and 64");
+            return counts.empty() ? std::string("must not be empty") : std::string();
+          }));
+  v.field("profiles", c.profiles);
+  v.field("links", c.links, Check<std::vector<std::string>>([](const std::vector<std::string>& l) {
+            for (const auto& kind : l)
+              if (kind != "flow_control" && kind != "netns")
+                return std::string("each must be flow_control or netns");
+            return l.empty() ? std::string("must not be empty") : std::string();
+          }));
+  v.field("netns_dds_cap_fraction", c.netns_dds_cap_fraction, between(0.0, 1.0));
+  v.field("bin_s", c.bin_s, between(0.01, 60.0));
+  v.field("python", c.python);
+  v.section("mission", c.mission);
+}
+
+void validate(const BandwidthExperimentConfig& c, const std::string& origin) {
+  validate(c.mission, origin + " (mission)");
+  if (c.profiles.empty()) throw ConfigError(origin + ": profiles: must not be empty");
+}
+
+BandwidthExperimentConfig parse_bandwidth_experiment_config(const std::string& text,
+                                                            const std::string& origin) {
+  return parse_config<BandwidthExperimentConfig>(text, origin);
+}
+
+BandwidthExperimentConfig load_bandwidth_experiment_config(const std::string& path) {
+  return parse_bandwidth_experiment_config(read_config_file(path), path);
+}
+
+std::string to_yaml(const BandwidthExperimentConfig& config) { return emit_config(config); }
+
+}  // namespace keyfleet

@@ -1,0 +1,11 @@
+#pragma once
+#include <string>
+
+namespace keyfleet::vision {
+
+// Where a configured model file (network, vocabulary) is: the path as given, else, for a
+// relative path, beside the installed executables in <bin>/../share/keyfleet/models/.
+// Throws StartupError naming `what` and both places when neither holds it.
+std::string locate_model(const std::string& configured, const std::string& what);
+
+}  // namespace keyfleet::vision

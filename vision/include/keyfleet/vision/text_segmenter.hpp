@@ -1,0 +1,56 @@
+#pragma once
+// The semantic seam: a network that marks text pixels. The real implementation runs an ONNX
+// model through OpenCV DNN, described by a JSON file beside it (model.onnx -> model.json).
+#include <opencv2/core.hpp>
+#include <opencv2/dnn.hpp>
+
+#include "keyfleet/vision/dnn_layers.hpp"
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace keyfleet::vision {
+
+struct SegmenterInfo {
+  cv::Size input_size;       // frames are resized to this
+  int size_multiple = 1;     // the network needs H and W multiples of this
+  double scale = 1.0 / 255;  // blob = (pixel - mean) * scale, BGR order
+  cv::Scalar mean_bgr{127.5, 127.5, 127.5};
+  std::vector<std::string> classes;
+  std::vector<int> target_classes;  // indices into classes: what counts as "text"
+  std::string description;
+  double gflops_512x256 = 0;  // the network's cost at 512x256 (0 = not given)
+};
+
+class TextSegmenter {
+ public:
+  virtual ~TextSegmenter() = default;
+  // One mask per frame (CV_8U, 255 = a target-class pixel) at the model's input size.
+  virtual std::vector<cv::Mat> segment(const std::vector<cv::Mat>& bgr_frames) = 0;
+  virtual const SegmenterInfo& info() const = 0;
+};
+
+// Reads the JSON description beside `model_path` (same name, .json). Throws StartupError.
+SegmenterInfo read_segmenter_info(const std::string& model_path);
+
+class DnnTextSegmenter final : public TextSegmenter {
+ public:
+  // Loads and checks the model with one forward pass at its input size: a missing or corrupt
+  // file, or a network that does not take that input or gives the wrong output shape, is a
+  // StartupError naming the file.
+  // `input_size` overrides the description's (for evaluations at other resolutions).
+  // `layers`: keyfleet's stand-ins for OpenCV's SELU and depthwise convolution (dnn_layers.hpp),
+  // the same outputs to float rounding; together MiniNet's forward pass at 512x256 on one thread
+  // takes about half as long (`keyfleet segmenter eval` compares them).
+  DnnTextSegmenter(const std::string& model_path, int threads,
+                   std::optional<cv::Size> input_size = std::nullopt, DnnLayers layers = {});
+  std::vector<cv::Mat> segment(const std::vector<cv::Mat>& bgr_frames) override;
+  const SegmenterInfo& info() const override { return info_; }
+
+ private:
+  SegmenterInfo info_;
+  cv::dnn::Net net_;
+};
+
+}  // namespace keyfleet::vision

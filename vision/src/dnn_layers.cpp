@@ -1,0 +1,199 @@
+#include "keyfleet/vision/dnn_layers.hpp"
+
+#include <opencv2/core/hal/hal.hpp>
+#include <opencv2/core/hal/intrin.hpp>
+#include <opencv2/dnn/all_layers.hpp>
+#include <opencv2/dnn/layer.hpp>
+
+#include <algorithm>
+#include <mutex>
+
+namespace keyfleet::vision {
+
+void selu_vectorised(const float* src, float* dst, int n, float alpha, float gamma) {
+  // Branch-free (signs are random: branches mispredict): e = exp(min(x, 0)) a chunk at a time.
+  constexpr int kChunk = 512;
+  float e[kChunk];
+  const cv::v_float32 zero = cv::vx_setzero_f32(), one = cv::vx_setall_f32(1.f),
+                      a = cv::vx_setall_f32(alpha), g = cv::vx_setall_f32(gamma);
+  constexpr int kLanes = cv::v_float32::nlanes;
+  for (int start = 0; start < n; start += kChunk) {
+    const int m = std::min(kChunk, n - start);
+    const float* s = src + start;
+    float* d = dst + start;
+    int i = 0;
+    for (; i + kLanes <= m; i += kLanes) cv::v_store(e + i, cv::v_min(cv::vx_load(s + i), zero));
+    for (; i < m; ++i) e[i] = std::min(s[i], 0.f);
+    cv::hal::exp32f(e, e, m);
+    i = 0;
+    for (; i + kLanes <= m; i += kLanes) {
+      const cv::v_float32 neg = a * (cv::vx_load(e + i) - one);
+      cv::v_store(d + i, g * (cv::v_max(cv::vx_load(s + i), zero) + neg));
+    }
+    for (; i < m; ++i) d[i] = gamma * (std::max(s[i], 0.f) + alpha * (e[i] - 1.f));
+  }
+}
+
+namespace {
+
+class VectorisedSeluLayer final : public cv::dnn::ActivationLayer {
+ public:
+  explicit VectorisedSeluLayer(const cv::dnn::LayerParams& params)
+      // ONNX's defaults (those of the SELU paper), as OpenCV's importer passes them through.
+      : alpha_(params.get<float>("alpha", 1.67326319217681884765625f)),
+        gamma_(params.get<float>("gamma", 1.05070102214813232421875f)) {
+    setParamsFrom(params);
+  }
+
+  static cv::Ptr<cv::dnn::Layer> create(cv::dnn::LayerParams& params) {
+    return cv::makePtr<VectorisedSeluLayer>(params);
+  }
+
+  bool getMemoryShapes(const std::vector<cv::dnn::MatShape>& inputs, int required_outputs,
+                       std::vector<cv::dnn::MatShape>& outputs,
+                       std::vector<cv::dnn::MatShape>& internals) const override {
+    cv::dnn::Layer::getMemoryShapes(inputs, required_outputs, outputs, internals);
+    return true;  // may run in place
+  }
+
+  void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
+               cv::OutputArrayOfArrays) override {
+    std::vector<cv::Mat> inputs, outputs;
+    inputs_arr.getMatVector(inputs);
+    outputs_arr.getMatVector(outputs);
+    for (std::size_t i = 0; i < inputs.size(); ++i) {
+      CV_Assert(inputs[i].type() == CV_32F && inputs[i].isContinuous() &&
+                outputs[i].isContinuous() && inputs[i].total() == outputs[i].total());
+      selu_vectorised(inputs[i].ptr<float>(), outputs[i].ptr<float>(), int(inputs[i].total()),
+                      alpha_, gamma_);
+    }
+  }
+
+  // What a convolution or sum calls after computing output channels [cn0, cn1) of a slice.
+  void forwardSlice(const float* src, float* dst, int len, size_t plane_size, int cn0,
+                    int cn1) const override {
+    for (int c = cn0; c < cn1; ++c, src += plane_size, dst += plane_size)
+      selu_vectorised(src, dst, len, alpha_, gamma_);
+  }
+
+ private:
+  float alpha_, gamma_;
+};
+
+// Depthwise convolution, stride 1, any kernel, dilation and (zero) padding; NCHW float.
+class DepthwiseLayer final : public cv::dnn::Layer {
+ public:
+  DepthwiseLayer(const cv::dnn::LayerParams& params, const cv::dnn::BaseConvolutionLayer& geometry)
+      : kh_(int(geometry.kernel_size[0])),
+        kw_(int(geometry.kernel_size[1])),
+        dh_(int(geometry.dilations[0])),
+        dw_(int(geometry.dilations[1])),
+        pt_(int(geometry.pads_begin[0])),
+        pl_(int(geometry.pads_begin[1])),
+        pb_(int(geometry.pads_end[0])),
+        pr_(int(geometry.pads_end[1])) {
+    setParamsFrom(params);
+    type = "KeyfleetDepthwise";  // not "Convolution": OpenCV's fusions expect its own class
+    weights_ = blobs[0].reshape(1, blobs[0].size[0]);  // channels x (kh kw)
+    if (blobs.size() > 1) bias_ = blobs[1].reshape(1, 1);
+  }
+
+  // Convolutions the layer takes over; the others stay OpenCV's.
+  static bool handles(const cv::dnn::LayerParams& params,
+                      const cv::dnn::BaseConvolutionLayer& geometry) {
+    if (params.blobs.empty() || params.blobs[0].dims != 4 || params.blobs[0].type() != CV_32F)
+      return false;
+    const cv::Mat& w = params.blobs[0];
+    return geometry.kernel_size.size() == 2 && geometry.padMode.empty() && w.size[1] == 1 &&
+           params.get<int>("group", 1) == w.size[0] && geometry.numOutput == w.size[0] &&
+           geometry.strides[0] == 1 && geometry.strides[1] == 1 &&
+           (params.blobs.size() < 2 || int(params.blobs[1].total()) == w.size[0]);
+  }
+
+  bool getMemoryShapes(const std::vector<cv::dnn::MatShape>& inputs, int,
+                       std::vector<cv::dnn::MatShape>& outputs,
+                       std::vector<cv::dnn::MatShape>&) const override {
+    const cv::dnn::MatShape& in = inputs.at(0);
+    CV_Assert(in.size() == 4 && in[1] == weights_.rows);
+    outputs = {
+        {in[0], in[1], in[2] + pt_ + pb_ - dh_ * (kh_ - 1), in[3] + pl_ + pr_ - dw_ * (kw_ - 1)}};
+    return false;
+  }
+
+  void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
+               cv::OutputArrayOfArrays) override {
+    std::vector<cv::Mat> inputs, outputs;
+    inputs_arr.getMatVector(inputs);
+    outputs_arr.getMatVector(outputs);
+    const cv::Mat& in = inputs.at(0);
+    cv::Mat& out = outputs.at(0);
+    CV_Assert(in.type() == CV_32F && in.isContinuous() && out.isContinuous());
+    const int channels = in.size[1];
+    cv::parallel_for_(cv::Range(0, in.size[0] * channels), [&](const cv::Range& planes) {
+      for (int p = planes.start; p < planes.end; ++p)
+        plane(in.ptr<float>() + std::size_t(p) * in.size[2] * in.size[3], in.size[2], in.size[3],
+              p % channels, out.ptr<float>() + std::size_t(p) * out.size[2] * out.size[3],
+              out.size[2], out.size[3]);
+    });
+  }
+
+ private:
+  void plane(const float* src, int h, int w, int channel, float* dst, int ho, int wo) const {
+    std::fill(dst, dst + std::size_t(ho) * wo, bias_.empty() ? 0.f : bias_.at<float>(channel));
+    const float* kernel = weights_.ptr<float>(channel);
+    constexpr int kLanes = cv::v_float32::nlanes;
+    for (int ky = 0; ky < kh_; ++ky)
+      for (int kx = 0; kx < kw_; ++kx) {
+        const float weight = kernel[ky * kw_ + kx];
+        if (weight == 0.f) continue;  // e.g. the added rows of export.py's squared kernels
+        // Output (y, x) reads input (y - pt + ky dh, x - pl + kx dw): the rows and columns
+        // where that lies inside the input (outside is zero padding, which adds nothing).
+        const int dy = ky * dh_ - pt_, dx = kx * dw_ - pl_;
+        const int y0 = std::max(0, -dy), y1 = std::min(ho, h - dy);
+        const int x0 = std::max(0, -dx), x1 = std::min(wo, w - dx);
+        const cv::v_float32 vw = cv::vx_setall_f32(weight);
+        for (int y = y0; y < y1; ++y) {
+          const float* s = src + std::size_t(y + dy) * w + dx;
+          float* d = dst + std::size_t(y) * wo;
+          int x = x0;
+          for (; x + kLanes <= x1; x += kLanes)
+            cv::v_store(d + x, cv::v_fma(vw, cv::vx_load(s + x), cv::vx_load(d + x)));
+          for (; x < x1; ++x) d[x] += weight * s[x];
+        }
+      }
+  }
+
+  int kh_, kw_, dh_, dw_, pt_, pl_, pb_, pr_;
+  cv::Mat weights_, bias_;
+};
+
+cv::Ptr<cv::dnn::Layer> create_convolution(cv::dnn::LayerParams& params) {
+  cv::Ptr<cv::dnn::BaseConvolutionLayer> opencv = cv::dnn::ConvolutionLayer::create(params);
+  if (!DepthwiseLayer::handles(params, *opencv)) return opencv;
+  return cv::makePtr<DepthwiseLayer>(params, *opencv);
+}
+
+}  // namespace
+
+std::mutex& DnnLayersScope::scope_mutex() {
+  static std::mutex mutex;
+  return mutex;
+}
+
+DnnLayersScope::DnnLayersScope(DnnLayers layers) : layers_(layers), lock_(scope_mutex()) {
+  if (layers_.vectorised_selu)
+    cv::dnn::LayerFactory::registerLayer("Selu", VectorisedSeluLayer::create);
+  try {
+    if (layers_.depthwise) cv::dnn::LayerFactory::registerLayer("Convolution", create_convolution);
+  } catch (...) {
+    if (layers_.vectorised_selu) cv::dnn::LayerFactory::unregisterLayer("Selu");
+    throw;
+  }
+}
+
+DnnLayersScope::~DnnLayersScope() {
+  if (layers_.depthwise) cv::dnn::LayerFactory::unregisterLayer("Convolution");
+  if (layers_.vectorised_selu) cv::dnn::LayerFactory::unregisterLayer("Selu");
+}
+
+}  // namespace keyfleet::vision

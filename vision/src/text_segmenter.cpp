@@ -1,0 +1,110 @@
+#include "keyfleet/vision/text_segmenter.hpp"
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <optional>
+
+#include "keyfleet/common/error.hpp"
+
+namespace keyfleet::vision {
+
+SegmenterInfo read_segmenter_info(const std::string& model_path) {
+  const std::string path = std::filesystem::path(model_path).replace_extension(".json").string();
+  std::ifstream in(path);
+  if (!in)
+    throw StartupError("segmenter: missing model description " + path + " (beside " + model_path +
+                       ")");
+  try {
+    const auto j = nlohmann::json::parse(in);
+    if (j.at("format") != "keyfleet-segmenter")
+      throw std::runtime_error("not a keyfleet segmenter");
+    SegmenterInfo info;
+    info.input_size = {j.at("input_width").get<int>(), j.at("input_height").get<int>()};
+    info.size_multiple = j.value("size_multiple", 1);
+    info.scale = j.at("scale");
+    const auto& mean = j.at("mean_bgr");
+    info.mean_bgr = cv::Scalar(mean.at(0), mean.at(1), mean.at(2));
+    info.classes = j.at("classes").get<std::vector<std::string>>();
+    info.description = j.value("description", "");
+    info.gflops_512x256 = j.value("gflops_512x256", 0.0);
+    for (const auto& name : j.at("target_classes")) {
+      const auto it = std::find(info.classes.begin(), info.classes.end(), name.get<std::string>());
+      if (it == info.classes.end())
+        throw std::runtime_error("target class '" + name.get<std::string>() + "' is not a class");
+      info.target_classes.push_back(int(it - info.classes.begin()));
+    }
+    if (info.input_size.width <= 0 || info.input_size.height <= 0 || info.size_multiple <= 0 ||
+        info.input_size.width % info.size_multiple || info.input_size.height % info.size_multiple)
+      throw std::runtime_error("input size must be positive multiples of size_multiple");
+    if (info.target_classes.empty()) throw std::runtime_error("no target classes");
+    return info;
+  } catch (const std::exception& e) {
+    throw StartupError("segmenter: " + path + ": " + e.what());
+  }
+}
+
+DnnTextSegmenter::DnnTextSegmenter(const std::string& model_path, int threads,
+                                   std::optional<cv::Size> input_size, DnnLayers layers)
+    : info_(read_segmenter_info(model_path)) {
+  if (input_size) info_.input_size = *input_size;
+  if (!std::filesystem::is_regular_file(model_path))
+    throw StartupError("segmenter: model file " + model_path + " does not exist");
+  // OpenCV creates the layers while importing and on the first forward pass (the probe below).
+  std::optional<DnnLayersScope> stand_ins;
+  if (layers.vectorised_selu || layers.depthwise) stand_ins.emplace(layers);
+  try {
+    net_ = cv::dnn::readNetFromONNX(model_path);
+  } catch (const cv::Exception& e) {
+    throw StartupError("segmenter: cannot load " + model_path +
+                       " (corrupt or not ONNX): " + e.what());
+  }
+  if (net_.empty()) throw StartupError("segmenter: " + model_path + " holds no network");
+  net_.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);
+  net_.setPreferableTarget(cv::dnn::DNN_TARGET_CPU);
+  if (threads > 0) cv::setNumThreads(threads);
+  std::vector<cv::Mat> probe;
+  try {
+    probe = segment({cv::Mat(info_.input_size, CV_8UC3, cv::Scalar::all(128))});
+  } catch (const cv::Exception& e) {
+    throw StartupError("segmenter: " + model_path + " does not run on " +
+                       std::to_string(info_.input_size.width) + "x" +
+                       std::to_string(info_.input_size.height) + " BGR input: " + e.what());
+  } catch (const std::runtime_error& e) {
+    throw StartupError("segmenter: " + model_path + ": " + e.what());
+  }
+}
+
+std::vector<cv::Mat> DnnTextSegmenter::segment(const std::vector<cv::Mat>& frames) {
+  if (frames.empty()) return {};
+  const cv::Mat blob = cv::dnn::blobFromImages(frames, info_.scale, info_.input_size,
+                                               info_.mean_bgr, false, false, CV_32F);
+  net_.setInput(blob);
+  const cv::Mat out = net_.forward();
+  const int n = int(frames.size()), classes = int(info_.classes.size());
+  if (out.dims != 4 || out.size[0] != n || out.size[1] != classes ||
+      out.size[2] != info_.input_size.height || out.size[3] != info_.input_size.width)
+    throw std::runtime_error("network output is not N x " + std::to_string(classes) + " x " +
+                             std::to_string(info_.input_size.height) + " x " +
+                             std::to_string(info_.input_size.width));
+  const int h = out.size[2], w = out.size[3];
+  std::vector<cv::Mat> masks;
+  for (int i = 0; i < n; ++i) {
+    // A pixel is text where a target class has the largest logit.
+    cv::Mat best(h, w, CV_32F, cv::Scalar(-1e30f)), is_target = cv::Mat::zeros(h, w, CV_8U);
+    for (int c = 0; c < classes; ++c) {
+      const cv::Mat logits(h, w, CV_32F, const_cast<float*>(out.ptr<float>(i, c)));
+      const cv::Mat higher = logits > best;
+      logits.copyTo(best, higher);
+      const bool target = std::find(info_.target_classes.begin(), info_.target_classes.end(), c) !=
+                          info_.target_classes.end();
+      is_target.setTo(target ? 255 : 0, higher);
+    }
+    masks.push_back(is_target);
+  }
+  return masks;
+}
+
+}  // namespace keyfleet::vision
