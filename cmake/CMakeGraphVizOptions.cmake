@@ -7,4 +7,4 @@ set(GRAPHVIZ_GENERATE_DEPENDERS FALSE)
 set(GRAPHVIZ_IGNORE_TARGETS "^test_" "^bench_" "keyfleet_test_support" "GTest" "gtest" "gmock"
     "benchmark" "^opencv_" "^Boost" "^boost" "spdlog" "fmt" "yaml-cpp" "SQLite" "sqlite"
     "Threads" "pthread" "nlohmann" "CLI11" "Eigen" "protobuf" "PkgConfig" "tesseract" "lept"
-    "^-" "^/")
+    "OpenSSL" "foonathan" "tinyxml" "^dl$" "^rt$" "^-" "^/")
