@@ -22,10 +22,12 @@ KeyframeAck GroundStation::handle(const ReceivedKeyframe& received, std::int64_t
   if (auto problem = find_keyframe_problem(k, limits_, codec_)) {
     ack.status = AckStatus::kRejected;
     ack.reason = *problem;
-    if (store_.record_rejection(k.robot_id.substr(0, 64), k.sequence_number, *problem, now_ns)) {
-      log_.rejected(k.robot_id.substr(0, 64), k.sequence_number, *problem, now_ns);
-      logger_->error("rejected keyframe {} from '{}': {}", k.sequence_number,
-                     k.robot_id.substr(0, 64), *problem);
+    // The id is recorded as printable text: raw bytes that are not UTF-8 would stop the JSON
+    // report and the protobuf mission log from being written.
+    const std::string robot = printable_text(k.robot_id);
+    if (store_.record_rejection(robot, k.sequence_number, *problem, now_ns)) {
+      log_.rejected(robot, k.sequence_number, *problem, now_ns);
+      logger_->error("rejected keyframe {} from '{}': {}", k.sequence_number, robot, *problem);
     }
     return ack;
   }

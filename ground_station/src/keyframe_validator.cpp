@@ -1,5 +1,7 @@
 #include "keyfleet/station/keyframe_validator.hpp"
 
+#include <cstdio>
+
 namespace keyfleet::station {
 namespace {
 
@@ -9,12 +11,27 @@ std::string size_text(std::uint32_t w, std::uint32_t h) {
 
 }  // namespace
 
+std::string printable_text(const std::string& raw, std::size_t max_bytes) {
+  std::string out;
+  for (const char c : raw.substr(0, max_bytes)) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (byte >= 0x20 && byte < 0x7f && c != '\\') {
+      out += c;
+    } else {
+      char hex[5];
+      std::snprintf(hex, sizeof hex, "\\x%02x", byte);
+      out += hex;
+    }
+  }
+  return out;
+}
+
 std::optional<std::string> find_keyframe_problem(const Keyframe& k, const StationLimits& limits,
                                                  const ImageCodec& codec) {
   if (!is_valid_robot_id(k.robot_id))
-    return "robot id '" + k.robot_id.substr(0, 64) + "' does not match [A-Za-z0-9_-]{1,32}";
+    return "robot id '" + printable_text(k.robot_id) + "' does not match [A-Za-z0-9_-]{1,32}";
   if (k.encoding != codec.encoding())
-    return "encoding '" + k.encoding.substr(0, 32) + "' is not " + codec.encoding();
+    return "encoding '" + printable_text(k.encoding, 32) + "' is not " + codec.encoding();
   if (k.image.empty()) return std::string("empty image");
   if (k.image.size() > limits.max_image_bytes)
     return "image of " + std::to_string(k.image.size()) + " bytes exceeds max_image_bytes " +

@@ -13,8 +13,10 @@
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/sqlite.hpp"
 #include "keyfleet/common/transport.hpp"
+#include "keyfleet/station/bandwidth_report.hpp"
 #include "keyfleet/station/ground_station.hpp"
 #include "keyfleet/station/keyframe_store.hpp"
+#include "keyfleet/station/keyframe_validator.hpp"
 #include "keyfleet/station/mission_log.hpp"
 #include "test_support.hpp"
 
@@ -85,6 +87,30 @@ TEST_F(GroundStationTest, GoodDuplicateAndCorruptKeyframesGetMatchingAcks) {
   EXPECT_EQ(totals[0].keyframes, 1u);
   EXPECT_EQ(totals[0].rejected, 1u);
   EXPECT_EQ(totals[0].serialized_bytes, good.image.size() + 200);
+}
+
+TEST_F(GroundStationTest, RejectedRobotIdThatIsNotUtf8IsRecordedAsPrintableText) {
+  // Bytes that are not UTF-8 once stopped the station's JSON report from being written.
+  const std::string hostile = std::string("\xff\xfe\x01id\\") + std::string(100, 'x');
+  step_with({received(keyfleet::test::make_valid_keyframe(hostile, 3))});
+  ASSERT_EQ(link_.acks.size(), 1u);
+  EXPECT_EQ(link_.acks[0].status, AckStatus::kRejected);
+
+  const auto totals = store_.totals();
+  ASSERT_EQ(totals.size(), 1u);
+  EXPECT_EQ(totals[0].robot_id.substr(0, 22), "\\xff\\xfe\\x01id\\x5cxxxx");
+  EXPECT_EQ(totals[0].rejected, 1u);
+  const std::string json = to_json(build_bandwidth_report(totals));
+  EXPECT_NE(json.find("xff"), std::string::npos);
+  EXPECT_EQ(log_kinds().back(), "rejected");
+}
+
+TEST(PrintableText, KeepsPrintableAsciiAndEscapesEveryOtherByte) {
+  EXPECT_EQ(printable_text("drone_0"), "drone_0");
+  EXPECT_EQ(printable_text(std::string("a\0b", 3)), "a\\x00b");
+  EXPECT_EQ(printable_text("caf\xc3\xa9"), "caf\\xc3\\xa9");
+  EXPECT_EQ(printable_text(std::string(100, 'z')).size(), 64u);
+  EXPECT_EQ(printable_text("abcdef", 3), "abc");
 }
 
 TEST_F(GroundStationTest, KeepsWorkingAfterABadKeyframe) {
