@@ -191,7 +191,15 @@ INSTANTIATE_TEST_SUITE_P(
         BadValueCase{"SectionIsNotAMapping", "source: 12\n", "agent.yaml:1: source",
                      "expected a mapping"},
         BadValueCase{"ListForScalar", "source:\n  max_frames: 10\n  fps: [1, 2]\n",
-                     "agent.yaml:3: source.fps", "expected a single value"}),
+                     "agent.yaml:3: source.fps", "expected a single value"},
+        BadValueCase{"NanResendTimeout",
+                     "source:\n  max_frames: 10\noutbox:\n  resend_after_s: .nan\n",
+                     "agent.yaml:4: outbox.resend_after_s", "must be a finite number"},
+        BadValueCase{"InfiniteStationWait", "source:\n  max_frames: 10\nwait_for_station_s: .inf\n",
+                     "agent.yaml:3: wait_for_station_s", "must be a finite number"},
+        BadValueCase{"NegativeInfiniteEdgeContrast",
+                     "source:\n  max_frames: 10\nselector:\n  quality:\n    edge_contrast: -.inf\n",
+                     "agent.yaml:5: selector.quality.edge_contrast", "must be a finite number"}),
     [](const ::testing::TestParamInfo<BadValueCase>& info) { return info.param.name; });
 
 TEST(ConfigBadValue, StationDomainIdOutOfRangeNamesKey) {

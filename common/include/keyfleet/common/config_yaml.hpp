@@ -6,6 +6,7 @@
 // station's structs declared below.
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
 #include <functional>
 #include <optional>
 #include <set>
@@ -164,12 +165,20 @@ class ConfigReader {
         if (!child.Scalar().empty() && child.Scalar()[0] == '-')
           fail(child, where, "must not be negative (got '" + child.Scalar() + "')");
       }
+      T value{};
       try {
-        return child.as<T>();
+        value = child.as<T>();
       } catch (const YAML::Exception&) {
         fail(child, where,
              std::string("expected ") + type_name<T>() + " (got " + scalar_text(child) + ")");
       }
+      // NaN and the infinities are no setting's value: a wait of .inf never ends, and .nan
+      // compares false with every bound.
+      if constexpr (std::is_floating_point_v<T>) {
+        if (!std::isfinite(value))
+          fail(child, where, "must be a finite number (got " + scalar_text(child) + ")");
+      }
+      return value;
     }
   }
 
