@@ -2,15 +2,27 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cctype>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
+
+#include "keyfleet/common/config.hpp"
 
 namespace keyfleet::scenario {
 namespace {
 
 using nlohmann::json;
 namespace fs = std::filesystem;
+
+// One path component of letters, digits, '_', '-' and '.', neither "." nor "..".
+bool is_plain_folder_name(const std::string& name) {
+  if (name.empty() || name == "." || name == ".." || name.size() > 255) return false;
+  for (const char c : name)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.'))
+      return false;
+  return true;
+}
 
 const char* const kVisibilityNames[] = {"full", "cut", "occluded"};
 
@@ -181,11 +193,20 @@ Scenario read_scenario(const std::string& scenario_dir) {
       d.fps = j.at("fps");
       const auto& c = j.at("camera");
       d.camera = {c.at("width"), c.at("height"), c.at("fx"), c.at("fy"), c.at("cx"), c.at("cy")};
+      // Both become paths under the run and scenario folders: nothing may climb out of them.
+      if (!is_valid_robot_id(d.robot_id))
+        throw std::runtime_error("drone robot_id '" + d.robot_id +
+                                 "' does not match [A-Za-z0-9_-]{1,32}");
+      if (!is_plain_folder_name(d.folder))
+        throw std::runtime_error("drone folder '" + d.folder +
+                                 "' is not a plain folder name inside the scenario");
       s.drones.push_back(d);
     }
     return s;
   } catch (const json::exception& e) {
     throw std::runtime_error(path.string() + ": malformed scenario: " + e.what());
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(path.string() + ": " + e.what());
   }
 }
 

@@ -1,6 +1,7 @@
 // The scenario generator: ground truth consistent with the pixels, deterministic, blur
 // ground truth that matches the images, a reader that round-trips, clear config errors.
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <Eigen/Geometry>
 
@@ -255,6 +256,26 @@ TEST(ScenarioReader, MalformedTruthNamesFileAndLine) {
     EXPECT_NE(std::string(e.what()).find("truth.jsonl:1"), std::string::npos) << e.what();
   }
   EXPECT_THROW(read_scenario(dir.path().string()), std::runtime_error);
+}
+
+// A scenario file's robot ids and folders become paths: one that climbs out of the run or
+// scenario folder ("../../x") is refused with the file named.
+TEST_F(GeneratedScenario, RobotIdsAndFoldersThatLeaveTheirFolderAreRefused) {
+  for (const auto& [key, value] :
+       {std::pair<std::string, std::string>{"robot_id", "../../x"}, {"folder", "../outside"}}) {
+    nlohmann::json doc = nlohmann::json::parse(std::ifstream(root() / "scenario.json"));
+    doc["drones"][0][key] = value;
+    test::TempDir dir;
+    std::ofstream(dir.path() / "scenario.json") << doc.dump();
+    try {
+      read_scenario(dir.path().string());
+      ADD_FAILURE() << key << " '" << value << "' was accepted";
+    } catch (const std::runtime_error& e) {
+      const std::string message = e.what();
+      EXPECT_NE(message.find("scenario.json"), std::string::npos) << message;
+      EXPECT_NE(message.find(value), std::string::npos) << message;
+    }
+  }
 }
 
 TEST(ScenarioConfigErrors, UnknownKeyNegativeSpeedMissingTextureFolder) {
