@@ -50,7 +50,9 @@ std::int64_t as_int(std::uint64_t v) { return static_cast<std::int64_t>(v); }
 Outbox::Outbox(const std::string& path, const std::string& robot_id, const OutboxConfig& bounds)
     : db_(path), bounds_(bounds), robot_id_(robot_id) {
   db_.exec(kSchema);
-  db_.exec("PRAGMA synchronous=NORMAL");  // WAL + NORMAL survives a process crash
+  // FULL, not NORMAL: with NORMAL a power cut can roll back the last transactions, and with them
+  // sequence numbers the station already holds; new keyframes would then reuse them.
+  db_.exec("PRAGMA synchronous=FULL");
   auto owner = db_.prepare("SELECT value FROM meta WHERE key='robot_id'");
   if (owner.step()) {
     if (owner.text(0) != robot_id)
