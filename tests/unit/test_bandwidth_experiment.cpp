@@ -179,6 +179,9 @@ TEST(ExperimentConfig, BadProfileKeysAndLinkKindsNameTheKey) {
       << error_of("profiles:\n  - name: a\n    rate: 5\n");
   EXPECT_NE(error_of("links: [radio]\n").find("links"), std::string::npos);
   EXPECT_NE(error_of("drones: [0]\n").find("drones"), std::string::npos);
+  // The name becomes part of a folder under run_root: it may not climb out of it.
+  EXPECT_NE(error_of("name: ../../etc\n").find("bad.yaml:1: name: must match"), std::string::npos)
+      << error_of("name: ../../etc\n");
 }
 
 TEST(StationRecords, MissingDatabaseIsAStartupErrorNamingTheFile) {

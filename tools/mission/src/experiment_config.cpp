@@ -14,7 +14,7 @@ void visit(V& v, LinkProfileConfig& c) {
 
 template <class V>
 void visit(V& v, BandwidthExperimentConfig& c) {
-  v.field("name", c.name);
+  v.field("name", c.name, file_name_check(64));  // part of the experiment folder's name
   v.field("run_root", c.run_root);
   v.field("drones", c.drones, Check<std::vector<int>>([](const std::vector<int>& counts) {
             for (int n : counts)
