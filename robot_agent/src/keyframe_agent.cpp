@@ -84,22 +84,7 @@ void KeyframeAgent::service(std::int64_t now_ns, std::chrono::milliseconds ack_w
       logger_->error("station rejected keyframe {}: {}", ack.sequence_number, ack.reason);
     }
   }
-  if (link_.matched_stations() > 0) {
-    const auto due =
-        outbox_.due_for_resend(now_ns, static_cast<std::size_t>(config_.outbox.resend_batch));
-    for (const auto& keyframe : due) {
-      const PublishResult result = link_.publish(keyframe);
-      if (!result.ok) break;  // the writer is busy: try again on the next pass
-      if (never_sent_.erase(keyframe.sequence_number) > 0)
-        ledger_.record_sent(result.serialized_bytes);
-      else
-        ledger_.record_resent(result.serialized_bytes);
-      outbox_.mark_sent(keyframe.sequence_number, now_ns);
-    }
-    if (!due.empty())
-      logger_->info("resent {} unacknowledged keyframe(s) from {}", due.size(),
-                    due.front().sequence_number);
-  }
+  // The bounds first: a keyframe they give up on is not sent once more on its way out.
   const auto evicted = outbox_.evict(now_ns);
   if (!evicted.empty()) {
     for (const auto sequence : evicted) never_sent_.erase(sequence);
@@ -109,6 +94,24 @@ void KeyframeAgent::service(std::int64_t now_ns, std::chrono::milliseconds ack_w
         "(max_pending {}, max_age_s {})",
         evicted.size(), evicted.front(), evicted.back(), config_.outbox.max_pending,
         config_.outbox.max_age_s);
+  }
+  if (link_.matched_stations() > 0) {
+    const auto due =
+        outbox_.due_for_resend(now_ns, static_cast<std::size_t>(config_.outbox.resend_batch));
+    std::size_t written = 0;
+    for (const auto& keyframe : due) {
+      const PublishResult result = link_.publish(keyframe);
+      if (!result.ok) break;  // the writer is busy: try again on the next pass
+      if (never_sent_.erase(keyframe.sequence_number) > 0)
+        ledger_.record_sent(result.serialized_bytes);
+      else
+        ledger_.record_resent(result.serialized_bytes);
+      outbox_.mark_sent(keyframe.sequence_number, now_ns);
+      ++written;
+    }
+    if (written > 0)
+      logger_->info("sent {} of {} unacknowledged keyframe(s) due from {}", written, due.size(),
+                    due.front().sequence_number);
   }
 }
 

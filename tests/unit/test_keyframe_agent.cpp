@@ -410,6 +410,19 @@ TEST_F(KeyframeAgentTest, EvictionByAgeDropsExpiredKeyframesAndCountsThem) {
   EXPECT_EQ(stats().keyframes_dropped, 2u);
 }
 
+TEST_F(KeyframeAgentTest, AKeyframeTheBoundsGiveUpOnIsNotResentFirst) {
+  config_.outbox.max_age_s = 10.0;
+  start({{0}, {}, {}});
+  process_frames(1, kStart);
+  ASSERT_EQ(link_.keyframes.size(), 1u);
+
+  service(kStart + 10 * kSecond + 1);  // due for a resend and past max_age_s at once
+  EXPECT_EQ(link_.keyframes.size(), 1u);
+  const AgentStats s = stats();
+  EXPECT_EQ(s.keyframes_resent, 0u);
+  EXPECT_EQ(s.keyframes_dropped, 1u);
+}
+
 TEST_F(KeyframeAgentTest, EvictedNeverSentKeyframeIsDroppedNotSent) {
   config_.outbox.max_pending = 1;
   link_.refuse_all = true;
