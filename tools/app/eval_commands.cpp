@@ -7,12 +7,15 @@
 #include <fstream>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "commands.hpp"
 #include "keyfleet/common/config.hpp"
+#include "keyfleet/common/error.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/eval/eval_config.hpp"
 #include "keyfleet/eval/eval_runner.hpp"
+#include "keyfleet/eval/seed_aggregate.hpp"
 
 namespace keyfleet::commands {
 namespace {
@@ -24,6 +27,7 @@ struct EvalOptions {
   std::string out;
   std::string scenario_dir;
   std::string python = "/usr/bin/python3";
+  std::vector<std::uint64_t> seeds;  // several generated streets, one evaluation each
 };
 
 std::string default_out() {
@@ -42,6 +46,39 @@ void print_summary(const eval::EvalResults& r) {
                 p.words_in_sequence, p.topk.top1_rate(), p.topk.top5_rate(), p.bytes / 1e6);
 }
 
+void print_seed_summary(const std::vector<eval::SeedPoint>& points, std::size_t seeds) {
+  std::printf("\nover %zu seeds: mean [95 %% interval]\n%-9s %6s %-22s %-22s %-22s\n", seeds,
+              "strategy", "kept", "words read", "words full", "top-1 %");
+  for (const auto& p : points)
+    std::printf("%-9s %5.0f%% %6.1f [%5.1f, %5.1f]   %6.1f [%5.1f, %5.1f]   %5.1f [%5.1f, %5.1f]\n",
+                p.strategy.c_str(), 100 * p.density, p.words_read.mean, p.words_read.low,
+                p.words_read.high, p.full_words.mean, p.full_words.low, p.full_words.high,
+                100 * p.top1.mean, 100 * p.top1.low, 100 * p.top1.high);
+}
+
+// One evaluation per seed in <out>/seed-<n>/ (its own generated street), then the intervals.
+void run_seeds(const EvalConfig& base, const EvalOptions& o, const std::string& out,
+               Logger logger) {
+  if (!base.scenario_dir.empty())
+    throw StartupError("--seeds generates one street per seed: give no scenario_dir");
+  std::vector<eval::EvalResults> runs;
+  for (const std::uint64_t seed : o.seeds) {
+    EvalConfig config = base;
+    config.scenario.seed = seed;
+    const std::string seed_out = (fs::path(out) / ("seed-" + std::to_string(seed))).string();
+    fs::create_directories(seed_out);
+    logger->info("seed {}: {}", seed, seed_out);
+    const std::string scenario = eval::prepare_scenario(config, seed_out, logger);
+    runs.push_back(eval::run_eval(config, scenario, logger));
+    eval::write_results(runs.back(), seed_out);
+  }
+  const auto points = eval::aggregate_seeds(runs);
+  eval::write_seed_results(points, o.seeds, out);
+  print_seed_summary(points, o.seeds.size());
+  std::printf("\n%s/seeds.md, seeds.json, seeds.csv; each seed's results in seed-<n>/\n",
+              out.c_str());
+}
+
 void run_eval_command(const EvalOptions& o) {
   EvalConfig config = load_eval_config(o.config);
   if (!o.scenario_dir.empty()) config.scenario_dir = o.scenario_dir;
@@ -52,6 +89,7 @@ void run_eval_command(const EvalOptions& o) {
     effective << to_yaml(config) << "\n";
   }
   Logger logger = make_logger("eval", "info");
+  if (!o.seeds.empty()) return run_seeds(config, o, out, logger);
   const std::string scenario = eval::prepare_scenario(config, out, logger);
   const eval::EvalResults results = eval::run_eval(config, scenario, logger);
   eval::write_results(results, out);
@@ -76,6 +114,8 @@ void add_eval_commands(CLI::App& app) {
                    "evaluate a scenario generated before instead of generating one")
       ->check(CLI::ExistingDirectory);
   eval->add_option("--python", options->python, "Python with matplotlib, for the plots");
+  eval->add_option("--seeds", options->seeds,
+                   "evaluate one generated street per seed and report means with 95 % intervals");
   eval->callback([options] { run_reporting([&] { run_eval_command(*options); }); });
 }
 
