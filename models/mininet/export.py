@@ -1,6 +1,6 @@
 """Exports a trained MiniNet checkpoint to ONNX for OpenCV DNN, checks it, describes it.
 
-  /usr/bin/python3 models/mininet/export.py --checkpoint WORK/latest.pt --out models/mininet/mininet_text.onnx
+  /usr/bin/python3 models/mininet/export.py --checkpoint WORK/best.pt --out models/mininet/mininet_text.onnx
 
 - exports with dynamic batch, height and width (opset 11, native ConvTranspose);
 - rewrites the Identity(initializer) nodes that Debian's torch 1.13 emits (OpenCV 4.6 rejects
@@ -166,7 +166,7 @@ def main():
         "format": "keyfleet-segmenter",
         "version": 1,
         "description": "MiniNet (ICRA 2019 layout) trained by models/mininet/train.py for text "
-                       "segmentation on generated street views",
+                       "segmentation (data: training.data)",
         "input_width": args.input_width,
         "input_height": args.input_height,
         "size_multiple": 64,

@@ -1,8 +1,12 @@
 #!/usr/bin/python3
 """MiniNet's training recipe, smoke-tested: the network's shape and cost, the exact fast
-upsampling, and a short run on generated pairs that lowers the loss.
+upsampling, the ICDAR 2015 loader (masks, don't-care, the validation split) and a short run on
+generated pairs plus real photos that lowers the loss.
 
-  test_mininet_training.py KEYFLEET_BINARY SCENARIO_YAML
+  test_mininet_training.py KEYFLEET_BINARY SCENARIO_YAML [DATA_DIR]
+
+DATA_DIR (else $KEYFLEET_DATA, else ../shared/data beside the repository) holds icdar2015/train;
+without it the real-photo parts skip and the run uses generated pairs only.
 """
 import os
 import random
@@ -18,10 +22,15 @@ import numpy as np  # noqa: E402
 import torch  # noqa: E402
 import torch.nn.functional as F  # noqa: E402
 
+import data  # noqa: E402
 import train  # noqa: E402
 from mininet import MiniNet, count_flops, count_parameters  # noqa: E402
 
 KEYFLEET, SCENARIO = sys.argv[1], sys.argv[2]
+DATA = sys.argv[3] if len(sys.argv) > 3 else os.environ.get(
+    "KEYFLEET_DATA", os.path.join(HERE, "..", "..", "..", "shared", "data"))
+ICDAR_TRAIN = os.path.join(DATA, "icdar2015", "train")
+HAVE_ICDAR = os.path.isdir(os.path.join(ICDAR_TRAIN, "images"))
 
 
 class MiniNetTraining(unittest.TestCase):
@@ -40,26 +49,53 @@ class MiniNetTraining(unittest.TestCase):
             native = net(x)
         self.assertLess(float((fast - native).abs().max()), 1e-4)
 
-    def test_a_short_run_on_generated_pairs_lowers_the_loss(self):
+    @unittest.skipUnless(HAVE_ICDAR, f"no ICDAR 2015 training photos in {ICDAR_TRAIN}")
+    def test_icdar_loader_split_and_dont_care(self):
+        train_ids, val_ids = data.icdar_split(data.icdar_ids(ICDAR_TRAIN))
+        self.assertEqual((len(train_ids), len(val_ids)), (900, 100))
+        self.assertEqual(val_ids[:3], [10, 20, 30])
+        self.assertFalse(set(train_ids) & set(val_ids))
+        quads = data.read_quads(os.path.join(ICDAR_TRAIN, "gt", "gt_img_1.txt"))
+        self.assertEqual(quads[0][0].tolist(), [[377, 117], [463, 117], [465, 130], [378, 130]])
+        self.assertEqual([legible for _, legible in quads[:3]], [True, True, False])  # BOM, ###
+        (image, mask), = data.load_icdar(ICDAR_TRAIN, [1])
+        self.assertEqual(image.shape, (360, 640, 3))
+        self.assertEqual(set(np.unique(mask).tolist()), {0, 1, data.IGNORE})
+        img, msk = data.augment(image, mask, random.Random(3))
+        self.assertEqual(img.shape, (3, data.TRAIN_H, data.TRAIN_W))
+        self.assertTrue(set(np.unique(msk).tolist()) <= {0, 1, data.IGNORE})
+        weights, freq = data.class_weights([([(image, mask)], 1)], 0.5)
+        self.assertAlmostEqual(freq[1], (mask == 1).sum() / (mask != data.IGNORE).sum())
+
+    def test_a_short_run_lowers_the_loss(self):
         torch.set_num_threads(2)
         torch.manual_seed(1)
         with tempfile.TemporaryDirectory() as work:
             subprocess.run([KEYFLEET, "scenario", "training", SCENARIO, "--out", work,
                             "--count", "8"], check=True, stdout=subprocess.DEVNULL)
-            pairs = train.load_pairs(work)
-            weights, _ = train.class_weights(pairs, 0.5)
-            batch = [train.augment(*pairs[i % len(pairs)], random.Random(i)) for i in range(4)]
+            pairs = data.load_pairs(work)
+            groups = [(pairs, 2)]
+            if HAVE_ICDAR:
+                groups.append((data.load_icdar(ICDAR_TRAIN, [1, 2, 3, 4]), 2))
+            weights, _ = data.class_weights(groups, 0.5)
+            sources = [p for p, _ in groups]
+            batch = [data.augment(*sources[i % len(sources)][i % 4], random.Random(i))
+                     for i in range(4)]
             x = torch.from_numpy(np.stack([b[0] for b in batch]))
             y = torch.from_numpy(np.stack([b[1] for b in batch])).long()
             net = MiniNet(2)
             optimizer = torch.optim.Adam(net.parameters(), lr=1e-3)
             losses = []
             for _ in range(15):
-                loss = F.cross_entropy(net(x), y, weight=weights)
+                loss = F.cross_entropy(net(x), y, weight=torch.tensor(weights, dtype=torch.float32),
+                                       ignore_index=data.IGNORE)
                 optimizer.zero_grad()
                 loss.backward()
                 optimizer.step()
                 losses.append(loss.item())
+            views = [data.whole_view(i, m) for i, m in pairs[:2]]
+            scores = train.evaluate(net, views)
+            self.assertTrue(0 <= scores["iou"] <= 1)
         self.assertLess(losses[-1], 0.7 * losses[0], f"losses {losses}")
 
 
