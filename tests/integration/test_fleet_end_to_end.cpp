@@ -80,11 +80,14 @@ TEST_F(FleetEndToEnd, SignalsStopEveryProcessCleanlyWithoutStaleSharedMemory) {
   for (const auto& name : fastdds_shm_files())
     if (!shm_before.count(name)) leaked.push_back(name);
   EXPECT_TRUE(leaked.empty()) << "stale shared memory: " << leaked.front();
-  // What the agent had not delivered when stopped stays in its outbox, not lost.
+  // What the agent had not delivered when stopped stays in its outbox, not lost: every keyframe
+  // it created is stored or pending. (Counting "sent" instead failed on a loaded machine: a
+  // keyframe whose first write the full DDS writer refused is pending but was never sent.)
   std::ifstream report_file(station_dir() / "report.json");
   const auto robot = nlohmann::json::parse(report_file)["robots"].at(0);
-  EXPECT_EQ(robot["keyframes_sent"].get<std::int64_t>(),
-            robot["keyframes_stored"].get<std::int64_t>() + outbox_pending("drone_0"))
+  const std::int64_t created = outbox_created("drone_0");
+  EXPECT_GE(created, 3) << robot.dump();
+  EXPECT_EQ(created, robot["keyframes_stored"].get<std::int64_t>() + outbox_pending("drone_0"))
       << robot.dump();
 }
 

@@ -175,6 +175,18 @@ std::int64_t FleetFixture::outbox_pending(const std::string& robot_id) const {
   }
 }
 
+std::int64_t FleetFixture::outbox_created(const std::string& robot_id) const {
+  const fs::path path = agent_dir(robot_id) / "outbox.sqlite";
+  if (!fs::exists(path)) return 0;
+  try {
+    SqliteDb db(path.string(), SqliteDb::Mode::kReadOnly);
+    auto q = db.prepare("SELECT value FROM meta WHERE key='next_sequence'");
+    return q.step() ? std::stoll(q.text(0)) : 0;
+  } catch (const SqliteError&) {
+    return 0;
+  }
+}
+
 std::vector<std::string> FleetFixture::rejection_reasons() const {
   std::vector<std::string> out;
   SqliteDb db((station_dir() / "station.sqlite").string(), SqliteDb::Mode::kReadOnly);

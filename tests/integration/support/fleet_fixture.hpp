@@ -56,6 +56,8 @@ class FleetFixture : public ::testing::Test {
                       mission::ChildProcess& station, std::chrono::seconds timeout);
   std::vector<StoredKeyframe> stored_keyframes() const;
   std::int64_t outbox_pending(const std::string& robot_id) const;
+  // Keyframes the agent ever created (its outbox's next sequence number); 0 without an outbox.
+  std::int64_t outbox_created(const std::string& robot_id) const;
   std::vector<std::string> rejection_reasons() const;
 
   std::filesystem::path run_dir_;
