@@ -146,8 +146,9 @@ struct StationLimits {
 struct TextReadingConfig {
   bool enabled = true;  // the station reads text at all
   // "tesseract": Tesseract on the whole image (sparse text); "mininet+tesseract": MiniNet
-  // finds text regions, Tesseract reads each as one line; "ppocr": PP-OCRv4 (below) (`keyfleet ocr eval` compares them:
-  // on ICDAR 2015 train_sharp, with these settings, F 37.0 % against 30.8 %).
+  // finds text regions, Tesseract reads each as one line (`keyfleet ocr eval` compares them:
+  // on ICDAR 2015 train_sharp, with these settings, F 37.0 % against 30.8 %); "ppocr":
+  // PP-OCRv4, see the ppocr_ settings below.
   std::string engine = "tesseract";
   std::string tessdata_dir;  // empty = Debian's /usr/share/tesseract-ocr/5/tessdata
   std::string language = "eng";
