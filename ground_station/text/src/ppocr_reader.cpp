@@ -70,7 +70,10 @@ float quad_area(const TextQuad& quad) {
 }  // namespace
 
 PpocrReader::PpocrReader(const TextReadingConfig& params)
-    : params_(params), detector_(make_detector(params)), recognizer_(make_recognizer(params)) {}
+    : params_(params), detector_(make_detector(params)), recognizer_(make_recognizer(params)) {
+  // Process-wide, as for mininet+tesseract's segmenter: the station's CPU budget for OpenCV DNN.
+  if (params.threads > 0) cv::setNumThreads(params.threads);
+}
 
 std::vector<ReadWord> PpocrReader::read(const cv::Mat& bgr) {
   const cv::Mat image = ppocr::to_bgr8(bgr);

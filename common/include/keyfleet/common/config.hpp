@@ -170,7 +170,7 @@ struct TextReadingConfig {
   // words of a 640x480 keyframe that 768 misses.
   std::string segmenter_model = "mininet_text.onnx";
   std::vector<int> segmenter_widths = {512, 768};
-  int threads = 1;              // OpenCV DNN threads for the segmenter
+  int threads = 1;              // OpenCV DNN threads for the segmenter and ppocr (0 = all)
   double region_padding = 0.3;  // each side of a region, as a fraction of its height
   int region_line_height = 48;  // px a region's crop is scaled to before reading
   int max_regions = 40;         // largest regions read per image (bounds the cost)
