@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Configures and builds keyfleet (Release, tests included) into $KEYFLEET_BUILD_DIR (default build/).
+# Configures and builds keyfleet (Release, tests included) into $KEYFLEET_BUILD_DIR (default build/),
+# then fetches and converts the optional ppocr text models (a failure there only warns).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build_dir=${KEYFLEET_BUILD_DIR:-$root/build}
@@ -10,3 +11,4 @@ if [ ! -f "$build_dir/CMakeCache.txt" ]; then
     -DKEYFLEET_BUILD_TESTS=ON -DKEYFLEET_WARNINGS_AS_ERRORS=ON
 fi
 cmake --build "$build_dir" --parallel "$(nproc)"
+KEYFLEET_BUILD_DIR="$build_dir" "$root/scripts/fetch_ppocr.sh"

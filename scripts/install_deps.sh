@@ -23,6 +23,7 @@ PACKAGES=(
   iproute2
   python3-torch python3-onnx python3-opencv python3-numpy
   python3-matplotlib
+  npm
   fonts-dejavu-core fonts-liberation2 fonts-freefont-ttf fonts-urw-base35
 )
 

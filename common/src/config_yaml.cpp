@@ -69,6 +69,19 @@ Check<std::string> file_name_check(int max_length) {
     return std::regex_match(v, std::regex(pattern)) ? std::string() : "must match " + pattern;
   };
 }
+// "WxH", both sides positive multiples of 32 up to 4096 (the converted detectors' input sizes).
+static Check<std::string> detector_size_check() {
+  return [](const std::string& v) {
+    std::smatch m;
+    const std::string rule = "must be WxH, sides multiples of 32 from 32 to 4096";
+    if (!std::regex_match(v, m, std::regex("([0-9]{1,4})x([0-9]{1,4})"))) return rule;
+    for (int i = 1; i <= 2; ++i) {
+      const int side = std::stoi(m[i].str());
+      if (side < 32 || side > 4096 || side % 32 != 0) return rule;
+    }
+    return std::string();
+  };
+}
 const std::set<std::string> kLogLevels = {"trace", "debug", "info", "warn", "error"};
 
 std::optional<SelectorConfig::Strategy> selection_strategy(const std::string& name) {
@@ -271,6 +284,11 @@ void visit(V& v, TextReadingConfig& c) {
   v.field("region_padding", c.region_padding, between(0.0, 4.0));
   v.field("region_line_height", c.region_line_height, between(8, 1024));
   v.field("max_regions", c.max_regions, between(1, 10000));
+  v.field("ppocr_models", c.ppocr_models);
+  v.field("ppocr_detector_size", c.ppocr_detector_size, detector_size_check());
+  v.field("ppocr_binary_threshold", c.ppocr_binary_threshold, between(0.0, 1.0));
+  v.field("ppocr_box_threshold", c.ppocr_box_threshold, between(0.0, 1.0));
+  v.field("ppocr_unclip_ratio", c.ppocr_unclip_ratio, between(0.0, 10.0));
 }
 
 template <class V>

@@ -216,6 +216,24 @@ TEST(ConfigBadValue, StationUnknownVerifierNamesKeyAndChoices) {
   EXPECT_NE(message.find("ransac_homography"), std::string::npos) << message;
 }
 
+TEST(ConfigBadValue, PpocrSettingsAreChecked) {
+  const auto text = [](const std::string& line) {
+    return "analysis:\n  text:\n    " + line + "\n";
+  };
+  EXPECT_EQ(parse_station_config(text("ppocr_detector_size: 1280x736"), "station.yaml")
+                .analysis.text.ppocr_detector_size,
+            "1280x736");
+  for (const std::string bad : {"650x480", "640", "640x480x3", "0x480", "8192x480"}) {
+    const std::string message = config_error_of(
+        [&] { parse_station_config(text("ppocr_detector_size: " + bad), "station.yaml"); });
+    EXPECT_NE(message.find("analysis.text.ppocr_detector_size"), std::string::npos) << message;
+    EXPECT_NE(message.find("multiples of 32"), std::string::npos) << message;
+  }
+  const std::string message = config_error_of(
+      [&] { parse_station_config(text("ppocr_box_threshold: 1.5"), "station.yaml"); });
+  EXPECT_NE(message.find("analysis.text.ppocr_box_threshold"), std::string::npos) << message;
+}
+
 TEST(ConfigBadValue, MissionOptionalDomainIdIsRangeChecked) {
   const std::string message = config_error_of([] {
     parse_mission_config("domain_id: 300\nagent:\n  source:\n    max_frames: 5\n", "mission.yaml");

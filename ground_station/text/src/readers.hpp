@@ -6,6 +6,8 @@
 
 #include "keyfleet/station/text/text_reader.hpp"
 #include "keyfleet/vision/text_segmenter.hpp"
+#include "ppocr_detector.hpp"
+#include "ppocr_recognizer.hpp"
 #include "tesseract_ocr.hpp"
 
 namespace keyfleet::station {
@@ -43,6 +45,22 @@ class DetectRecogniseReader final : public TextReader {
   TesseractOcr ocr_;
   // The network takes any size that is a multiple of 64; one instance per input size.
   std::map<std::pair<int, int>, std::unique_ptr<vision::DnnTextSegmenter>> segmenters_;
+};
+
+// PP-OCRv4: the DB detector finds text lines (at most `max_regions`, the largest), the SVTR
+// recogniser reads each, words are split at spaces. Images smaller than a keyframe (word crops)
+// are read as one line without detection, as TesseractReader does.
+class PpocrReader final : public TextReader {
+ public:
+  // Throws StartupError naming the first converted file that is missing or unusable.
+  explicit PpocrReader(const TextReadingConfig& params);
+  std::vector<ReadWord> read(const cv::Mat& bgr) override;
+  std::string name() const override { return "ppocr"; }
+
+ private:
+  TextReadingConfig params_;
+  PpocrDetector detector_;
+  PpocrRecognizer recognizer_;
 };
 
 }  // namespace keyfleet::station

@@ -18,6 +18,7 @@ const std::vector<Engine>& engines() {
       {"tesseract", [](const auto& c) { return std::make_unique<TesseractReader>(c); }},
       {"mininet+tesseract",
        [](const auto& c) { return std::make_unique<DetectRecogniseReader>(c); }},
+      {"ppocr", [](const auto& c) { return std::make_unique<PpocrReader>(c); }},
   };
   return all;
 }
