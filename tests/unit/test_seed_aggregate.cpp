@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "keyfleet/common/error.hpp"
 #include "keyfleet/eval/seed_aggregate.hpp"
 #include "test_support.hpp"
 
@@ -102,6 +103,24 @@ TEST(AggregateSeeds, ARunWithoutAPointDoesNotCountForIt) {
   EXPECT_EQ(points[0].words_read.n, 1u);
   EXPECT_DOUBLE_EQ(points[0].words_read.mean, 3.0);
   EXPECT_TRUE(aggregate_seeds({}).empty());
+}
+
+TEST(AggregateSeeds, ASummaryWrittenByAnEvaluationReadsBackAsWritten) {
+  keyfleet::test::TempDir dir;
+  EvalResults written = run({point("vslam", 0.5, 4, 10, 7), point("full", 0.5, 6, 12, 8)});
+  written.strategies = {"vslam", "full"};
+  written.densities = {0.5};
+  write_results(written, dir.path().string());
+  const auto read = read_summary((dir.path() / "results.json").string());
+  ASSERT_EQ(read.size(), 2u);
+  EXPECT_EQ(read[1].strategy, "full");
+  EXPECT_DOUBLE_EQ(read[1].density, 0.5);
+  EXPECT_EQ(read[1].words_read, 6u);
+  EXPECT_EQ(read[1].full_words, 12u);
+  EXPECT_EQ(read[1].topk.queries, 10u);
+  EXPECT_EQ(read[1].topk.top1, 8u);
+  EXPECT_EQ(read[1].topk.top5, 10u);
+  EXPECT_THROW(read_summary((dir.path() / "missing.json").string()), StartupError);
 }
 
 TEST(AggregateSeeds, WritesJsonCsvAndMarkdown) {

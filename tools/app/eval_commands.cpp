@@ -57,6 +57,7 @@ void print_seed_summary(const std::vector<eval::SeedPoint>& points, std::size_t 
 }
 
 // One evaluation per seed in <out>/seed-<n>/ (its own generated street), then the intervals.
+// A seed whose results.json is there already is not run again, so a stopped run resumes.
 void run_seeds(const EvalConfig& base, const EvalOptions& o, const std::string& out,
                Logger logger) {
   if (!base.scenario_dir.empty())
@@ -67,6 +68,14 @@ void run_seeds(const EvalConfig& base, const EvalOptions& o, const std::string& 
     config.scenario.seed = seed;
     const std::string seed_out = (fs::path(out) / ("seed-" + std::to_string(seed))).string();
     fs::create_directories(seed_out);
+    const fs::path done = fs::path(seed_out) / "results.json";
+    if (fs::is_regular_file(done)) {
+      logger->info("seed {}: reusing {}", seed, done.string());
+      eval::EvalResults earlier;
+      earlier.summary = eval::read_summary(done.string());
+      runs.push_back(std::move(earlier));
+      continue;
+    }
     logger->info("seed {}: {}", seed, seed_out);
     const std::string scenario = eval::prepare_scenario(config, seed_out, logger);
     runs.push_back(eval::run_eval(config, scenario, logger));

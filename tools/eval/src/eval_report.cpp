@@ -2,6 +2,7 @@
 // point, plus the summed rows) and report.md (tables, plots, the paper's claims checked).
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
@@ -53,6 +54,24 @@ nlohmann::json to_json(const PointSummary& p) {
           {"place_queries", p.topk.queries},
           {"top1", p.topk.top1_rate()},
           {"top5", p.topk.top5_rate()}};
+}
+
+PointSummary summary_from_json(const nlohmann::json& j) {
+  PointSummary p;
+  p.strategy = j.at("strategy");
+  p.density = j.at("density");
+  p.keyframes = j.at("keyframes");
+  p.vslam_keyframes = j.at("vslam_keyframes");
+  p.words_in_sequence = j.at("words_in_sequence");
+  p.full_words = j.at("full_words");
+  p.words_read = j.at("words_read");
+  p.word_recall = j.at("word_recall");
+  p.full_word_recall = j.at("full_word_recall");
+  p.bytes = j.at("bytes");
+  p.topk.queries = j.at("place_queries");
+  p.topk.top1 = std::size_t(std::llround(j.at("top1").get<double>() * double(p.topk.queries)));
+  p.topk.top5 = std::size_t(std::llround(j.at("top5").get<double>() * double(p.topk.queries)));
+  return p;
 }
 
 std::string csv(const EvalResults& r) {
@@ -258,6 +277,19 @@ bool plot_results(const std::string& out_dir, const std::string& python, std::st
   }
   problem = "plot_eval.py not found beside the binaries nor in the source tree";
   return false;
+}
+
+std::vector<PointSummary> read_summary(const std::string& results_json) {
+  std::ifstream in(results_json);
+  if (!in) throw StartupError(results_json + ": cannot read evaluation results");
+  try {
+    const nlohmann::json doc = nlohmann::json::parse(in);
+    std::vector<PointSummary> summary;
+    for (const auto& j : doc.at("summary")) summary.push_back(summary_from_json(j));
+    return summary;
+  } catch (const nlohmann::json::exception& e) {
+    throw StartupError(results_json + ": malformed evaluation results: " + e.what());
+  }
 }
 
 }  // namespace keyfleet::eval

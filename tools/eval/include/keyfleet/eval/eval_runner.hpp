@@ -99,6 +99,10 @@ std::vector<PointSummary> summarise(const std::vector<WordScore>& words,
 // results.json, results.csv and report.md in out_dir (the plots are plot_eval.py's).
 void write_results(const EvalResults& results, const std::string& out_dir);
 
+// The per-(strategy, density) summary of a results.json written by write_results (top-k counts
+// recovered from the rates and query counts). Throws StartupError naming the file.
+std::vector<PointSummary> read_summary(const std::string& results_json);
+
 // Draws fig6a_words.png and fig6b_places.png from out_dir/results.json with
 // tools/report/plot_eval.py (installed beside the binaries, else the source copy) and
 // `python` (Debian's matplotlib). A missing script or library is not fatal: returns false
