@@ -27,19 +27,6 @@ std::string format(const char* fmt, ...) {
   return buffer;
 }
 
-void write_file(const fs::path& path, const std::string& text) {
-  std::ofstream out(path);
-  out << text;
-  if (!out) throw StartupError("eval: cannot write " + path.string());
-}
-
-const PointSummary* find(const std::vector<PointSummary>& summary, const std::string& strategy,
-                         double density) {
-  for (const auto& p : summary)
-    if (p.strategy == strategy && p.density == density) return &p;
-  return nullptr;
-}
-
 nlohmann::json to_json(const PointSummary& p) {
   return {{"strategy", p.strategy},
           {"density", p.density},
@@ -100,10 +87,10 @@ std::string table(const EvalResults& r, const std::string& first, Cell cell) {
   for (const auto& s : r.strategies) out += " " + s + " |", rule += "---|";
   out += "\n" + rule + "\n";
   for (double d : r.densities) {
-    const auto* any = find(r.summary, r.strategies.front(), d);
+    const auto* any = find_point(r.summary, r.strategies.front(), d);
     out += format("| %.0f %% | %zu |", 100 * d, any ? any->keyframes : 0);
     for (const auto& s : r.strategies) {
-      const auto* p = find(r.summary, s, d);
+      const auto* p = find_point(r.summary, s, d);
       out += " " + (p ? cell(*p) : std::string("-")) + " |";
     }
     out += "\n";
@@ -118,8 +105,8 @@ std::string compare(const EvalResults& r, const std::string& a, const std::strin
   std::string out;
   int holds = 0, points = 0;
   for (double d : r.densities) {
-    const auto* pa = find(r.summary, a, d);
-    const auto* pb = find(r.summary, b, d);
+    const auto* pa = find_point(r.summary, a, d);
+    const auto* pb = find_point(r.summary, b, d);
     if (!pa || !pb) continue;
     ++points;
     const double va = value(*pa), vb = value(*pb);
@@ -182,7 +169,7 @@ std::string report(const EvalResults& r) {
      << ".\n";
   md << "- No loss in place recognition (top-5): " << compare(r, "full", "vslam", top5, "", true)
      << ".\n";
-  const auto* one = find(r.summary, r.strategies.front(), r.densities.front());
+  const auto* one = find_point(r.summary, r.strategies.front(), r.densities.front());
   if (one && one->topk.queries)
     md << format("\nOne query is %.1f points of accuracy at a density; one word is one count.\n",
                  100.0 / double(one->topk.queries));
@@ -202,6 +189,19 @@ std::string report(const EvalResults& r) {
 }
 
 }  // namespace
+
+const PointSummary* find_point(const std::vector<PointSummary>& summary,
+                               const std::string& strategy, double density) {
+  for (const auto& p : summary)
+    if (p.strategy == strategy && p.density == density) return &p;
+  return nullptr;
+}
+
+void write_text_file(const std::string& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+  if (!out) throw StartupError("eval: cannot write " + path);
+}
 
 void write_results(const EvalResults& r, const std::string& out_dir) {
   fs::create_directories(out_dir);
@@ -254,9 +254,9 @@ void write_results(const EvalResults& r, const std::string& out_dir) {
                {"orb_ms", c.orb_ms},
                {"wall_s", c.wall_s}};
   const fs::path dir(out_dir);
-  write_file(dir / "results.json", j.dump(2) + "\n");
-  write_file(dir / "results.csv", csv(r));
-  write_file(dir / "report.md", report(r));
+  write_text_file((dir / "results.json").string(), j.dump(2) + "\n");
+  write_text_file((dir / "results.csv").string(), csv(r));
+  write_text_file((dir / "report.md").string(), report(r));
 }
 
 bool plot_results(const std::string& out_dir, const std::string& python, std::string& problem) {

@@ -4,20 +4,13 @@
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <sstream>
 #include <utility>
-
-#include "keyfleet/common/error.hpp"
 
 namespace keyfleet::eval {
 namespace {
 
 namespace fs = std::filesystem;
-
-bool same_point(const PointSummary& p, const std::string& strategy, double density) {
-  return p.strategy == strategy && std::abs(p.density - density) < 1e-9;
-}
 
 nlohmann::json interval_json(const Interval& i) {
   return {{"n", i.n}, {"mean", i.mean}, {"low", i.low}, {"high", i.high}};
@@ -29,12 +22,6 @@ std::string interval_text(const Interval& i, double scale, int decimals) {
   out.precision(decimals);
   out << i.mean * scale << " [" << i.low * scale << ", " << i.high * scale << "]";
   return out.str();
-}
-
-void write_file(const fs::path& path, const std::string& text) {
-  std::ofstream out(path);
-  out << text;
-  if (!out) throw StartupError("cannot write " + path.string());
 }
 
 }  // namespace
@@ -77,23 +64,19 @@ std::vector<SeedPoint> aggregate_seeds(const std::vector<EvalResults>& runs) {
     std::vector<double> read, full, in_sequence, recall, top1, top5, keyframes;
     std::vector<double> read_vs_vslam, top1_vs_vslam;
     for (const auto& run : runs) {
-      const PointSummary* vslam = nullptr;
-      for (const auto& p : run.summary)
-        if (same_point(p, "vslam", first.density)) vslam = &p;
-      for (const auto& p : run.summary) {
-        if (!same_point(p, first.strategy, first.density)) continue;
-        if (vslam) {
-          read_vs_vslam.push_back(double(p.words_read) - double(vslam->words_read));
-          top1_vs_vslam.push_back(p.topk.top1_rate() - vslam->topk.top1_rate());
-        }
-        read.push_back(double(p.words_read));
-        full.push_back(double(p.full_words));
-        in_sequence.push_back(double(p.words_in_sequence));
-        recall.push_back(p.word_recall);
-        top1.push_back(p.topk.top1_rate());
-        top5.push_back(p.topk.top5_rate());
-        keyframes.push_back(double(p.keyframes));
+      const PointSummary* p = find_point(run.summary, first.strategy, first.density);
+      if (!p) continue;
+      if (const PointSummary* vslam = find_point(run.summary, "vslam", first.density)) {
+        read_vs_vslam.push_back(double(p->words_read) - double(vslam->words_read));
+        top1_vs_vslam.push_back(p->topk.top1_rate() - vslam->topk.top1_rate());
       }
+      read.push_back(double(p->words_read));
+      full.push_back(double(p->full_words));
+      in_sequence.push_back(double(p->words_in_sequence));
+      recall.push_back(p->word_recall);
+      top1.push_back(p->topk.top1_rate());
+      top5.push_back(p->topk.top5_rate());
+      keyframes.push_back(double(p->keyframes));
     }
     SeedPoint point;
     point.strategy = first.strategy;
@@ -151,9 +134,9 @@ void write_seed_results(const std::vector<SeedPoint>& points,
        << interval_text(p.top5, 100, 1) << " | " << interval_text(p.words_read_vs_vslam, 1, 1)
        << " | " << interval_text(p.top1_vs_vslam, 100, 1) << " |\n";
   }
-  write_file(dir / "seeds.json", doc.dump(2) + "\n");
-  write_file(dir / "seeds.csv", csv.str());
-  write_file(dir / "seeds.md", md.str());
+  write_text_file((dir / "seeds.json").string(), doc.dump(2) + "\n");
+  write_text_file((dir / "seeds.csv").string(), csv.str());
+  write_text_file((dir / "seeds.md").string(), md.str());
 }
 
 }  // namespace keyfleet::eval
