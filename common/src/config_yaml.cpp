@@ -89,7 +89,6 @@ std::optional<SelectorConfig::Strategy> selection_strategy(const std::string& na
 }
 std::string selection_strategy_choices() { return enum_choices<SelectorConfig::Strategy>(); }
 std::string to_string(SelectorConfig::Strategy strategy) { return enum_name(strategy); }
-std::string to_string(VerifierKind kind) { return enum_name(kind); }
 std::optional<VerifierKind> verifier_kind(const std::string& name) {
   return enum_from_name<VerifierKind>(name);
 }

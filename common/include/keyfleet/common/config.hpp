@@ -248,6 +248,5 @@ std::string selection_strategy_choices();  // "vslam|quality|semantic|full"
 std::string to_string(SelectorConfig::Strategy strategy);
 std::optional<VerifierKind> verifier_kind(const std::string& name);
 std::string verifier_kind_choices();
-std::string to_string(VerifierKind kind);
 
 }  // namespace keyfleet
