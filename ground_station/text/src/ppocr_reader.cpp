@@ -60,7 +60,10 @@ PpocrRecognizer make_recognizer(const TextReadingConfig& params) {
   for (const int width : kRecogniserWidths)
     files[width] =
         locate(params, "ppocr_rec_w" + std::to_string(width) + ".onnx", "ppocr recogniser");
-  return PpocrRecognizer(files, locate(params, "ppocr_keys_v1.txt", "ppocr character list"));
+  if (!(params.ppocr_space_probability >= 0 && params.ppocr_space_probability <= 1))
+    throw StartupError("text reader: ppocr_space_probability must be within 0..1");
+  return PpocrRecognizer(files, locate(params, "ppocr_keys_v1.txt", "ppocr character list"),
+                         {params.ppocr_latin_only, float(params.ppocr_space_probability)});
 }
 
 float quad_area(const TextQuad& quad) {
@@ -100,7 +103,7 @@ std::vector<ReadWord> PpocrReader::read(const cv::Mat& bgr) {
     if (!line) continue;
     for (const auto& word : line->words) {
       const std::vector<cv::Point2f> corners(word.quad.begin(), word.quad.end());
-      ReadWord read{word.text, word.confidence, cv::boundingRect(corners) & frame};
+      ReadWord read{word.text, word.confidence, cv::boundingRect(corners) & frame, word.quad};
       if (keep_word(read, params_)) words.push_back(std::move(read));
     }
   }

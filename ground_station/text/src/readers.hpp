@@ -4,6 +4,7 @@
 #include <memory>
 #include <utility>
 
+#include "keyfleet/station/text/lexicon.hpp"
 #include "keyfleet/station/text/text_reader.hpp"
 #include "keyfleet/vision/text_segmenter.hpp"
 #include "ppocr_detector.hpp"
@@ -61,6 +62,18 @@ class PpocrReader final : public TextReader {
   TextReadingConfig params_;
   PpocrDetector detector_;
   PpocrRecognizer recognizer_;
+};
+
+// Any engine's words checked against a word list (apply_lexicon): corrected, or dropped.
+class LexiconReader final : public TextReader {
+ public:
+  LexiconReader(std::unique_ptr<TextReader> engine, const std::string& lexicon_path);
+  std::vector<ReadWord> read(const cv::Mat& bgr) override;
+  std::string name() const override { return engine_->name() + "+lexicon"; }
+
+ private:
+  std::unique_ptr<TextReader> engine_;
+  Lexicon lexicon_;
 };
 
 }  // namespace keyfleet::station
