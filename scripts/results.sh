@@ -3,6 +3,7 @@
 #   scripts/results.sh                 # both blocks (about 5 + 8 minutes here, as root)
 #   scripts/results.sh eval            # `keyfleet eval configs/eval.yaml` only
 #   scripts/results.sh bandwidth       # `keyfleet experiment bandwidth configs/experiment_bandwidth.yaml` only
+#   scripts/results.sh ocr             # `keyfleet ocr eval` on the real sets (about 40 minutes)
 # The blocks between <!-- results:NAME:begin --> and <!-- results:NAME:end --> are replaced;
 # their plots go to docs/results/. KEYFLEET_BUILD_DIR overrides build/; KEYFLEET_EVAL_SCENARIO_DIR
 # evaluates a scenario generated before instead of generating the default one.
@@ -96,12 +97,30 @@ PY
   echo "README results:bandwidth block updated from $out"
 }
 
+ocr_block() {
+  local data=${KEYFLEET_DATA:-$root/../shared/data}
+  local out="$root/runs/results-ocr-$(date +%Y%m%d-%H%M%S).md"
+  mkdir -p "$root/runs"
+  local start=$SECONDS
+  "$build/bin/keyfleet" ocr eval --data "$data" --config "$root/configs/station.yaml" --out "$out"
+  local took=$((SECONDS - start))
+  {
+    echo "*Measured $when on $machine (shared: times are medians of one thread and noisy),"
+    echo "\`scripts/results.sh ocr\` ($took s): \`keyfleet ocr eval --config configs/station.yaml\`, the"
+    echo "station's reader settings for every engine; the first 100 photos of each photo set.*"
+    echo
+    cat "$out"
+  } | replace_block ocr
+  echo "README results:ocr block updated from $out"
+}
+
 blocks=("$@")
 [ ${#blocks[@]} -eq 0 ] && blocks=(eval bandwidth)
 for block in "${blocks[@]}"; do
   case "$block" in
     eval) eval_block ;;
     bandwidth) bandwidth_block ;;
-    *) echo "results.sh: unknown block '$block' (eval, bandwidth)" >&2; exit 2 ;;
+    ocr) ocr_block ;;
+    *) echo "results.sh: unknown block '$block' (eval, bandwidth, ocr)" >&2; exit 2 ;;
   esac
 done

@@ -73,7 +73,8 @@ Check<std::string> file_name_check(int max_length) {
 static Check<std::string> detector_size_check() {
   return [](const std::string& v) {
     std::smatch m;
-    const std::string rule = "must be WxH, sides multiples of 32 from 32 to 4096";
+    const std::string rule = "must be auto or WxH, sides multiples of 32 from 32 to 4096";
+    if (v == "auto") return std::string();
     if (!std::regex_match(v, m, std::regex("([0-9]{1,4})x([0-9]{1,4})"))) return rule;
     for (int i = 1; i <= 2; ++i) {
       const int side = std::stoi(m[i].str());
@@ -283,6 +284,7 @@ void visit(V& v, TextReadingConfig& c) {
   v.field("region_padding", c.region_padding, between(0.0, 4.0));
   v.field("region_line_height", c.region_line_height, between(8, 1024));
   v.field("max_regions", c.max_regions, between(1, 10000));
+  v.field("cut_word_margin", c.cut_word_margin, between(-1, 1000));
   v.field("ppocr_models", c.ppocr_models);
   v.field("ppocr_detector_size", c.ppocr_detector_size, detector_size_check());
   v.field("ppocr_binary_threshold", c.ppocr_binary_threshold, between(0.0, 1.0));

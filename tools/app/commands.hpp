@@ -3,6 +3,7 @@
 
 #include <exception>
 #include <iostream>
+#include <string>
 
 // Each group of `keyfleet` subcommands lives in its own file and adds itself here.
 namespace keyfleet::commands {
@@ -27,4 +28,9 @@ void add_experiment_commands(CLI::App& app);
 void add_eval_commands(CLI::App& app);
 void add_ocr_commands(CLI::App& app);
 void add_segmenter_commands(CLI::App& app);
+
+// Scores what a run's station read against the scenario it replayed (`keyfleet ocr score`, and
+// the end of `keyfleet mission`): prints it and writes station/text_score.txt. Never throws: a
+// run that cannot be scored says why.
+void print_run_text_score(const std::string& run_dir, const std::string& scenario_dir);
 }  // namespace keyfleet::commands

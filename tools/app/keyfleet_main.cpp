@@ -35,6 +35,8 @@ int run_mission(const std::string& config_path, int drones, const std::string& r
   mission::MissionRunner runner(config, binaries, logger, std::cout);
   const mission::MissionResult result = runner.run(shutdown.stop);
   std::cout << "\n" << result.report_table;
+  if (!result.scenario_dir.empty())
+    commands::print_run_text_score(result.run_dir, result.scenario_dir);
   std::cout << "\nrun folder: " << result.run_dir
             << "\n  station/station.sqlite  keyframes (SQLite)"
                "\n  station/mission_log.pb  mission log (protobuf, length-delimited)"

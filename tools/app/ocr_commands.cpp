@@ -17,6 +17,7 @@
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/eval/eval_runner.hpp"
+#include "keyfleet/eval/run_text_score.hpp"
 #include "keyfleet/eval/text_dataset_eval.hpp"
 #include "keyfleet/station/text/text_reader.hpp"
 
@@ -184,7 +185,7 @@ void add_reader_options(CLI::App& command, OcrOptions& o) {
                      "Tesseract binarisation: 0 Otsu, 1 tiled Otsu, 2 Sauvola");
   command.add_option("--tessdata", o.params.tessdata_dir, "Tesseract data folder");
   command.add_option("--ppocr-detector-size", o.params.ppocr_detector_size,
-                     "ppocr detector input WxH (a converted size: 640x480 or 1280x736)");
+                     "ppocr detector input: auto, or WxH (a converted size: 640x480 or 1280x736)");
   command
       .add_option("--ppocr-binary-threshold", o.params.ppocr_binary_threshold,
                   "ppocr: text probability of a text pixel (0..1)")
@@ -209,6 +210,18 @@ void add_reader_options(CLI::App& command, OcrOptions& o) {
 
 }  // namespace
 
+void print_run_text_score(const std::string& run_dir, const std::string& scenario_dir) {
+  const fs::path station = fs::path(run_dir) / "station";
+  try {
+    const auto score = eval::score_run_text(scenario_dir, (station / "station.sqlite").string());
+    const std::string text = eval::format_run_text_score(score);
+    std::cout << "\n" << text;
+    eval::write_text_file((station / "text_score.txt").string(), text);
+  } catch (const std::exception& e) {
+    std::cout << "\nText read: not scored against the scenario: " << e.what() << "\n";
+  }
+}
+
 void add_ocr_commands(CLI::App& app) {
   auto options = std::make_shared<OcrOptions>();
   auto* ocr = app.add_subcommand("ocr", "the station's text readers");
@@ -230,6 +243,15 @@ void add_ocr_commands(CLI::App& app) {
   eval->add_option("--out", options->out, "also write the table (Markdown) to this file");
   add_reader_options(*eval, *options);
   eval->callback([options] { run_reporting([&] { run_eval(*options); }); });
+
+  auto* score = ocr->add_subcommand(
+      "score", "what a mission's station read against the scenario it replayed");
+  score->add_option("run", options->image, "the mission's run folder")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  score->callback([options] {
+    print_run_text_score(options->image, (fs::path(options->image) / "scenario").string());
+  });
 
   auto* read = ocr->add_subcommand("read", "print the words read in one image");
   read->add_option("image", options->image, "image file")->required()->check(CLI::ExistingFile);

@@ -15,6 +15,10 @@ namespace {
 // narrowest that holds it at height 48. 160 is enough for most words and costs half of 320.
 constexpr int kRecogniserWidths[] = {160, 320, 640};
 
+// The detector sizes scripts/fetch_ppocr.sh converts, which "auto" chooses among: a keyframe's
+// own 4:3 size and one holding 16:9 photos of 1280x720 unscaled.
+constexpr const char* kFetchedDetectorSizes[] = {"640x480", "1280x736"};
+
 cv::Size detector_size(const std::string& text) {
   int width = 0, height = 0;
   char end = 0;
@@ -49,10 +53,18 @@ DbParams db_params(const TextReadingConfig& params) {
   return db;
 }
 
-PpocrDetector make_detector(const TextReadingConfig& params) {
-  const cv::Size size = detector_size(params.ppocr_detector_size);
-  const std::string file = "ppocr_det_" + params.ppocr_detector_size + ".onnx";
-  return PpocrDetector(locate(params, file, "ppocr detector"), size, db_params(params));
+std::vector<PpocrDetector> make_detectors(const TextReadingConfig& params) {
+  std::vector<std::string> sizes = {params.ppocr_detector_size};
+  if (params.ppocr_detector_size == "auto")
+    sizes.assign(std::begin(kFetchedDetectorSizes), std::end(kFetchedDetectorSizes));
+  std::vector<PpocrDetector> detectors;
+  for (const auto& size : sizes)
+    detectors.emplace_back(locate(params, "ppocr_det_" + size + ".onnx", "ppocr detector"),
+                           detector_size(size), db_params(params));
+  std::sort(detectors.begin(), detectors.end(), [](const auto& a, const auto& b) {
+    return a.input_size().area() < b.input_size().area();
+  });
+  return detectors;
 }
 
 PpocrRecognizer make_recognizer(const TextReadingConfig& params) {
@@ -73,21 +85,29 @@ float quad_area(const TextQuad& quad) {
 }  // namespace
 
 PpocrReader::PpocrReader(const TextReadingConfig& params)
-    : params_(params), detector_(make_detector(params)), recognizer_(make_recognizer(params)) {
+    : params_(params), detectors_(make_detectors(params)), recognizer_(make_recognizer(params)) {
   // Process-wide, as for mininet+tesseract's segmenter: the station's CPU budget for OpenCV DNN.
   if (params.threads > 0) cv::setNumThreads(params.threads);
+}
+
+PpocrDetector& PpocrReader::detector_for(cv::Size image) {
+  for (auto& detector : detectors_)
+    if (detector.input_size().width >= image.width && detector.input_size().height >= image.height)
+      return detector;
+  return detectors_.back();
 }
 
 std::vector<ReadWord> PpocrReader::read(const cv::Mat& bgr) {
   const cv::Mat image = ppocr::to_bgr8(bgr);
   if (image.empty() || image.cols < 2 || image.rows < 2) return {};
   std::vector<TextQuad> lines;
-  if (std::max(image.cols, image.rows) < kMaxCropLongSide) {
+  const bool crop = std::max(image.cols, image.rows) < kMaxCropLongSide;
+  if (crop) {
     // A word or line crop: the detector, trained on scenes, would only cut into it.
     const float w = float(image.cols), h = float(image.rows);
     lines.push_back({cv::Point2f(0, 0), cv::Point2f(w, 0), cv::Point2f(w, h), cv::Point2f(0, h)});
   } else {
-    std::vector<DetectedText> found = detector_.detect(image);
+    std::vector<DetectedText> found = detector_for(image.size()).detect(image);
     if (int(found.size()) > params_.max_regions) {
       std::stable_sort(found.begin(), found.end(), [](const auto& a, const auto& b) {
         return quad_area(a.quad) > quad_area(b.quad);
@@ -97,14 +117,27 @@ std::vector<ReadWord> PpocrReader::read(const cv::Mat& bgr) {
     for (const auto& text : found) lines.push_back(text.quad);
   }
   const cv::Rect frame(0, 0, image.cols, image.rows);
+  const int margin = crop ? -1 : params_.cut_word_margin;
   std::vector<ReadWord> words;
   for (const auto& quad : lines) {
     const auto line = recognizer_.recognize(image, quad);
     if (!line) continue;
-    for (const auto& word : line->words) {
+    // A line the frame cuts: its first or last word (or all, cut above or below) is a fragment
+    // even where the characters read stop short of the edge.
+    const cv::Rect line_box =
+        cv::boundingRect(std::vector<cv::Point2f>(quad.begin(), quad.end())) & frame;
+    const bool cut_across =
+        margin >= 0 && (line_box.y <= margin || line_box.br().y >= frame.height - margin);
+    const bool cut_left = margin >= 0 && line_box.x <= margin;
+    const bool cut_right = margin >= 0 && line_box.br().x >= frame.width - margin;
+    for (std::size_t i = 0; i < line->words.size(); ++i) {
+      const auto& word = line->words[i];
       const std::vector<cv::Point2f> corners(word.quad.begin(), word.quad.end());
       ReadWord read{word.text, word.confidence, cv::boundingRect(corners) & frame, word.quad};
-      if (keep_word(read, params_)) words.push_back(std::move(read));
+      const bool cut = cut_across || (i == 0 && cut_left) ||
+                       (i + 1 == line->words.size() && cut_right) ||
+                       cut_by_frame(read.box, frame.size(), margin);
+      if (!cut && keep_word(read, params_)) words.push_back(std::move(read));
     }
   }
   return words;

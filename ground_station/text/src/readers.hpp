@@ -49,7 +49,9 @@ class DetectRecogniseReader final : public TextReader {
 };
 
 // PP-OCRv4: the DB detector finds text lines (at most `max_regions`, the largest), the SVTR
-// recogniser reads each, words are split at spaces. Images smaller than a keyframe (word crops)
+// recogniser reads each, words are split at spaces. With ppocr_detector_size "auto" the
+// detector is the fetched size that holds the image unscaled (a 640x480 keyframe, a 1280x720
+// photo). Images smaller than a keyframe (word crops)
 // are read as one line without detection, as TesseractReader does.
 class PpocrReader final : public TextReader {
  public:
@@ -59,8 +61,11 @@ class PpocrReader final : public TextReader {
   std::string name() const override { return "ppocr"; }
 
  private:
+  // The smallest detector that holds `image` unscaled, else the largest.
+  PpocrDetector& detector_for(cv::Size image);
+
   TextReadingConfig params_;
-  PpocrDetector detector_;
+  std::vector<PpocrDetector> detectors_;  // by input area, smallest first
   PpocrRecognizer recognizer_;
 };
 

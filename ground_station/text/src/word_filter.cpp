@@ -15,6 +15,12 @@ std::array<cv::Point2f, 4> outline_of(const ReadWord& word) {
   return {cv::Point2f(x0, y0), cv::Point2f(x1, y0), cv::Point2f(x1, y1), cv::Point2f(x0, y1)};
 }
 
+bool cut_by_frame(const cv::Rect& box, const cv::Size& size, int margin) {
+  return margin >= 0 &&
+         (box.x <= margin || box.y <= margin || box.x + box.width >= size.width - margin ||
+          box.y + box.height >= size.height - margin);
+}
+
 bool keep_word(const ReadWord& word, const TextReadingConfig& config) {
   // Compared in float, the precision the engines report confidences in.
   if (word.confidence < float(config.min_confidence) || word.box.area() <= 0) return false;

@@ -175,6 +175,16 @@ std::int64_t FleetFixture::outbox_pending(const std::string& robot_id) const {
   }
 }
 
+std::set<std::uint64_t> FleetFixture::outbox_pending_sequences(const std::string& robot_id) const {
+  std::set<std::uint64_t> sequences;
+  const fs::path path = agent_dir(robot_id) / "outbox.sqlite";
+  if (!fs::exists(path)) return sequences;
+  SqliteDb db(path.string(), SqliteDb::Mode::kReadOnly);
+  auto q = db.prepare("SELECT sequence_number FROM pending");
+  while (q.step()) sequences.insert(static_cast<std::uint64_t>(q.int64(0)));
+  return sequences;
+}
+
 std::int64_t FleetFixture::outbox_created(const std::string& robot_id) const {
   const fs::path path = agent_dir(robot_id) / "outbox.sqlite";
   if (!fs::exists(path)) return 0;

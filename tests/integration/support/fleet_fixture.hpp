@@ -9,6 +9,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -56,6 +57,7 @@ class FleetFixture : public ::testing::Test {
                       mission::ChildProcess& station, std::chrono::seconds timeout);
   std::vector<StoredKeyframe> stored_keyframes() const;
   std::int64_t outbox_pending(const std::string& robot_id) const;
+  std::set<std::uint64_t> outbox_pending_sequences(const std::string& robot_id) const;
   // Keyframes the agent ever created (its outbox's next sequence number); 0 without an outbox.
   std::int64_t outbox_created(const std::string& robot_id) const;
   std::vector<std::string> rejection_reasons() const;

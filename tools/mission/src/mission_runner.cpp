@@ -122,6 +122,7 @@ MissionResult MissionRunner::run(const StopToken& stop) {
         scenario::generate_scenario(load_scenario_config(config_.scenario), scenario_dir, logger_);
     progress_ << "scenario: " << summary.frames << " frames in " << summary.seconds << " s\n";
   }
+  result.scenario_dir = scenario_dir;
   if (!scenario_dir.empty()) {
     for (const auto& drone : scenario::read_scenario(scenario_dir).drones)
       robot_ids.push_back(drone.robot_id);

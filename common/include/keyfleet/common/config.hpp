@@ -145,11 +145,10 @@ struct StationLimits {
 // what the station runs.
 struct TextReadingConfig {
   bool enabled = true;  // the station reads text at all
-  // "tesseract": Tesseract on the whole image (sparse text); "mininet+tesseract": MiniNet
-  // finds text regions, Tesseract reads each as one line (`keyfleet ocr eval` compares them:
-  // on ICDAR 2015 train_sharp, with these settings, F 37.0 % against 30.8 %); "ppocr":
-  // PP-OCRv4, see the ppocr_ settings below.
-  std::string engine = "tesseract";
+  // "ppocr": PP-OCRv4 (see the ppocr_ settings below); "tesseract": Tesseract on the whole
+  // image (sparse text); "mininet+tesseract": MiniNet finds text regions, Tesseract reads each
+  // as one line. `keyfleet ocr eval` compares them on real photos (README, text reading).
+  std::string engine = "ppocr";
   std::string tessdata_dir;  // empty = Debian's /usr/share/tesseract-ocr/5/tessdata
   std::string language = "eng";
   // Tesseract's binarisation: 0 global Otsu, 1 tiled Otsu (Leptonica), 2 Sauvola. Scene
@@ -174,14 +173,20 @@ struct TextReadingConfig {
   double region_padding = 0.3;  // each side of a region, as a fraction of its height
   int region_line_height = 48;  // px a region's crop is scaled to before reading
   int max_regions = 40;         // largest regions read per image (bounds the cost)
+  // ppocr: words whose box comes within this many pixels of the keyframe's edge are dropped: a sign
+  // cut by the frame reads as a fragment ("SEUM", "FLOWE"), and a later keyframe shows it whole. -1
+  // = keep them. Word crops (images smaller than a keyframe) are never cut.
+  int cut_word_margin = 2;
   // ppocr: PP-OCRv4 (PaddleOCR's DB detector and SVTR recogniser) in OpenCV DNN, from the
   // files scripts/fetch_ppocr.sh converts into <bin>/../share/keyfleet/models/ppocr/. Reads at
   // most `max_regions` detected lines per image (the largest).
   std::string ppocr_models = "ppocr";  // folder of the converted files (as locate_model)
   // Detector input "WxH" (px, multiples of 32; one converted file per size: 640x480 and
-  // 1280x736 are fetched). Images are letterboxed into it. 640x480 is the keyframes' own size;
-  // 1280x736 holds ICDAR's 1280x720 photos unscaled and reads more small text at ~3x the cost.
-  std::string ppocr_detector_size = "640x480";
+  // 1280x736 are fetched), images letterboxed into it; or "auto": of the fetched sizes, the
+  // smallest that holds the image unscaled (a 640x480 keyframe at 640x480, a 1280x720 photo at
+  // 1280x736), else the largest. On the demo's keyframes 1280x736 read no more sign words than
+  // 640x480 and more fragments, at 1.6x the CPU.
+  std::string ppocr_detector_size = "auto";
   double ppocr_binary_threshold = 0.3;  // 0..1: text probability of a text pixel
   double ppocr_box_threshold = 0.6;     // 0..1: min mean probability inside a kept line box
   double ppocr_unclip_ratio = 1.5;      // line boxes grown by area * ratio / perimeter px

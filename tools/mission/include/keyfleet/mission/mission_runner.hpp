@@ -20,6 +20,7 @@ struct MissionResult {
   bool ok = false;
   std::string run_dir;
   std::string report_table;           // the station's bandwidth report
+  std::string scenario_dir;           // the scenario replayed, when there was one
   std::vector<std::string> failures;  // one line per failed process, saying why
 };
 

@@ -43,4 +43,8 @@ std::vector<std::string> text_reader_engines();
 // `min_word_height` pixels, confidence at least `min_confidence`, half or more letters/digits.
 bool keep_word(const ReadWord& word, const TextReadingConfig& config);
 
+// Whether `box` comes within `margin` pixels of the edge of an image of `size` (a word the frame
+// cuts); never for a negative margin.
+bool cut_by_frame(const cv::Rect& box, const cv::Size& size, int margin);
+
 }  // namespace keyfleet::station
