@@ -101,4 +101,13 @@ SqliteStatement SqliteDb::prepare(const std::string& sql) {
 
 std::int64_t SqliteDb::changes() const { return sqlite3_changes64(db_); }
 
+void SqliteDb::add_column_if_missing(const std::string& table, const std::string& column,
+                                     const std::string& declaration) {
+  auto columns = prepare("SELECT name FROM pragma_table_info(?)");
+  columns.bind(1, table);
+  while (columns.step())
+    if (columns.text(0) == column) return;
+  exec("ALTER TABLE " + table + " ADD COLUMN " + column + " " + declaration);
+}
+
 }  // namespace keyfleet

@@ -67,10 +67,25 @@ float quad_area(const TextQuad& quad) {
   return float(std::abs(cv::contourArea(std::vector<cv::Point2f>(quad.begin(), quad.end()))));
 }
 
+// The detector of the mosaics of hinted regions (ppocr_region_hints.cpp); null for "off".
+std::unique_ptr<PpocrDetector> make_hint_detector(const TextReadingConfig& params) {
+  if (params.region_hints == "off") return nullptr;
+  if (params.region_hints != "only" && params.region_hints != "first")
+    throw StartupError("text reader: region_hints '" + params.region_hints +
+                       "' is not off, only or first");
+  const std::string file = "ppocr_det_" + params.region_hint_detector_size + ".onnx";
+  return std::make_unique<PpocrDetector>(locate(params, file, "ppocr region-hint detector"),
+                                         detector_size(params.region_hint_detector_size),
+                                         db_params(params));
+}
+
 }  // namespace
 
 PpocrReader::PpocrReader(const TextReadingConfig& params)
-    : params_(params), detector_(make_detector(params)), recognizer_(make_recognizer(params)) {
+    : params_(params),
+      detector_(make_detector(params)),
+      recognizer_(make_recognizer(params)),
+      hint_detector_(make_hint_detector(params)) {
   // Process-wide, as for mininet+tesseract's segmenter: the station's CPU budget for OpenCV DNN.
   if (params.threads > 0) cv::setNumThreads(params.threads);
 }

@@ -2,6 +2,7 @@
 // The engines behind make_text_reader.
 #include <map>
 #include <memory>
+#include <optional>
 #include <utility>
 
 #include "keyfleet/station/text/text_reader.hpp"
@@ -56,11 +57,42 @@ class PpocrReader final : public TextReader {
   explicit PpocrReader(const TextReadingConfig& params);
   std::vector<ReadWord> read(const cv::Mat& bgr) override;
   std::string name() const override { return "ppocr"; }
+  // As `region_hints` says (config.hpp; ppocr_region_hints.cpp).
+  std::vector<ReadWord> read_with_hints(const cv::Mat& bgr,
+                                        const std::vector<cv::Rect>& hints) override;
 
  private:
+  // Recognises each line (the largest `max_regions`) and keeps the words keep_word() accepts.
+  std::vector<ReadWord> read_lines(const cv::Mat& image, std::vector<TextQuad> lines);
+
   TextReadingConfig params_;
   PpocrDetector detector_;
   PpocrRecognizer recognizer_;
+  std::unique_ptr<PpocrDetector> hint_detector_;  // region_hints other than "off"
 };
+
+namespace ppocr {
+
+// Where a hinted region of the image lies in a mosaic.
+struct MosaicPlacement {
+  cv::Rect source;  // in the image
+  cv::Point at;     // its top-left corner in the mosaic
+};
+
+// The hinted regions of an image padded by `padding` x their height a side (at least 4 px),
+// clipped to the image, overlapping ones united, packed in rows (tallest first, `gap` px apart)
+// into as many mosaics of `mosaic` size as they need. Empty when a padded region does not fit
+// in one mosaic, or when more than `max_mosaics` would be needed.
+std::vector<std::vector<MosaicPlacement>> pack_hints(const std::vector<cv::Rect>& hints,
+                                                     cv::Size image_size, double padding,
+                                                     cv::Size mosaic, int gap,
+                                                     std::size_t max_mosaics);
+
+// A line found in a mosaic, moved back into the image; nullopt when its centre lies in no
+// placed region (the gaps between them).
+std::optional<TextQuad> quad_in_image(const TextQuad& in_mosaic,
+                                      const std::vector<MosaicPlacement>& placements);
+
+}  // namespace ppocr
 
 }  // namespace keyfleet::station
