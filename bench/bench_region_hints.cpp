@@ -71,6 +71,7 @@ int main(int argc, char** argv) {
   const JpegCodec codec(85);
 
   std::vector<eval::DroneFrames> drones;
+  drones.reserve(scene.drones.size());  // `Sent::truth` points into them
   std::vector<Sent> sent;
   std::vector<double> region_counts;
   std::set<std::string> scene_words;
@@ -94,15 +95,31 @@ int main(int argc, char** argv) {
       sent.push_back(std::move(k));
     }
   }
-  std::set<int> visible_signs;
-  for (const auto& k : sent)
-    for (int sign : eval::fully_visible_signs(*k.truth)) visible_signs.insert(sign);
+  // Which fully visible words the hints cover (half the word's box inside a hinted region).
+  std::set<int> visible_signs, covered_signs;
+  std::size_t views = 0, covered_views = 0;
+  for (const auto& k : sent) {
+    const auto full = eval::fully_visible_signs(*k.truth);
+    for (const auto& w : k.truth->words) {
+      if (!full.count(w.sign_id)) continue;
+      const cv::Rect box(cv::Point(int(w.box_x0), int(w.box_y0)),
+                         cv::Point(int(w.box_x1), int(w.box_y1)));
+      bool covered = false;
+      for (const auto& h : k.hints) covered = covered || (box & h).area() * 2 >= box.area();
+      ++views;
+      covered_views += covered;
+      visible_signs.insert(w.sign_id);
+      if (covered) covered_signs.insert(w.sign_id);
+    }
+  }
   std::printf(
       "%zu keyframes from %zu drones; text regions a keyframe: median %.0f, max %.0f "
       "(%.0f bytes on the wire at the median); %zu distinct signs fully visible\n",
       sent.size(), drones.size(), median(region_counts),
       region_counts.empty() ? 0.0 : *std::max_element(region_counts.begin(), region_counts.end()),
       4 + 8 * median(region_counts), visible_signs.size());
+  std::printf("hints cover %zu of %zu views of fully visible words, %zu of %zu distinct signs\n",
+              covered_views, views, covered_signs.size(), visible_signs.size());
 
   std::printf(
       "\n| region_hints | signs read (of fully visible) | words | junk | ms/keyframe "
@@ -142,6 +159,9 @@ int main(int argc, char** argv) {
         100.0 * double(read_signs.size()) / double(std::max<std::size_t>(1, visible_signs.size())),
         words, junk, 100.0 * double(junk) / double(std::max<std::size_t>(1, words)), median(ms),
         mean);
+    std::string names;
+    for (int sign : read_signs) names += " " + scene.signs.at(std::size_t(sign)).text;
+    std::fprintf(stderr, "%s read:%s\n", mode.c_str(), names.c_str());
     std::fflush(stdout);
   }
   return 0;
