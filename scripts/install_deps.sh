@@ -10,7 +10,7 @@ PACKAGES=(
   libopencv-dev libopencv-contrib-dev
   libeigen3-dev
   libboost-graph-dev
-  libtesseract-dev tesseract-ocr-eng
+  libtesseract-dev tesseract-ocr-eng wamerican
   libprotobuf-dev protobuf-compiler
   libspdlog-dev libfmt-dev
   libyaml-cpp-dev

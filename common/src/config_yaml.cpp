@@ -302,6 +302,9 @@ void visit(V& v, TextReadingConfig& c) {
   v.field("ppocr_binary_threshold", c.ppocr_binary_threshold, between(0.0, 1.0));
   v.field("ppocr_box_threshold", c.ppocr_box_threshold, between(0.0, 1.0));
   v.field("ppocr_unclip_ratio", c.ppocr_unclip_ratio, between(0.0, 10.0));
+  v.field("ppocr_latin_only", c.ppocr_latin_only);
+  v.field("ppocr_space_probability", c.ppocr_space_probability, between(0.0, 1.0));
+  v.field("lexicon", c.lexicon);
 }
 
 template <class V>

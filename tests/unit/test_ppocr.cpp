@@ -209,6 +209,43 @@ TEST(PpocrCtcDecode, BlanksOnlyOrMismatchedClassesGiveNoWords) {
   EXPECT_TRUE(ppocr::ctc_decode(cv::Mat(), classes, 32, 32, line, false).words.empty());
 }
 
+TEST(PpocrCtcDecode, SplitsWordsWhereASpaceIsLikelyThoughNotBest) {
+  const std::vector<std::string> classes = {"", "a", "b", " "};
+  const int blank = 0, a = 1, b = 2, space = 3;
+  // "a", a blank step where the space has 0.3 (the blank wins), then "b".
+  cv::Mat probs = steps({{a, 0.9f}, {blank, 0.6f}, {b, 0.9f}}, int(classes.size()));
+  probs.at<float>(1, space) = 0.3f;
+  const TextQuad line = {cv::Point2f(0, 0), cv::Point2f(24, 0), cv::Point2f(24, 8),
+                         cv::Point2f(0, 8)};
+  ppocr::CtcOptions options;
+  options.space_probability = 0.2f;
+  const auto split = ppocr::ctc_decode(probs, classes, 24, 24, line, false, options);
+  ASSERT_EQ(split.words.size(), 2u);
+  EXPECT_EQ(split.words[0].text, "a");
+  EXPECT_EQ(split.words[1].text, "b");
+  options.space_probability = 0.5f;  // not likely enough: one word
+  const auto joined = ppocr::ctc_decode(probs, classes, 24, 24, line, false, options);
+  ASSERT_EQ(joined.words.size(), 1u);
+  EXPECT_EQ(joined.words[0].text, "ab");
+}
+
+TEST(PpocrCtcDecode, LatinOnlyReadsTheBestLatinClass) {
+  const std::vector<std::string> classes = {"", "\xE4\xB8\xAA" /* U+4E2A */, "T", "\xC3\xA9", " "};
+  const auto latin = ppocr::latin_classes(classes);
+  EXPECT_EQ(latin, (std::vector<bool>{true, false, true, true, true}));
+  // The Chinese class wins the step; the Latin "T" is second.
+  cv::Mat probs = steps({{1, 0.6f}, {3, 0.9f}}, int(classes.size()));
+  probs.at<float>(0, 2) = 0.3f;
+  const TextQuad line = {cv::Point2f(0, 0), cv::Point2f(16, 0), cv::Point2f(16, 8),
+                         cv::Point2f(0, 8)};
+  EXPECT_EQ(ppocr::ctc_decode(probs, classes, 16, 16, line, false).words.at(0).text,
+            "\xE4\xB8\xAA\xC3\xA9");
+  ppocr::CtcOptions options;
+  options.allowed = latin;
+  EXPECT_EQ(ppocr::ctc_decode(probs, classes, 16, 16, line, false, options).words.at(0).text,
+            "T\xC3\xA9");
+}
+
 TEST(PpocrCropQuad, RejectsDegenerateAndAbsurdQuads) {
   const cv::Mat image(100, 100, CV_8UC3, cv::Scalar(128, 128, 128));
   const float nan = std::nanf("");

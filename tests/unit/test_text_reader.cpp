@@ -136,6 +136,38 @@ TEST(GroundTruthReaders, IcdarFileWithBomCommasAndDontCare) {
   EXPECT_THROW(read_icdar_gt(dir.file("bad.txt")), StartupError);
 }
 
+TEST(EndToEndMetric, ADetectionWithAQuadIsComparedByItsQuad) {
+  // A slanted word: its bounding rectangle overlaps the truth by less than half, its quad fully.
+  GtWord slanted{
+      {cv::Point2f(0, 0), cv::Point2f(100, 40), cv::Point2f(100, 60), cv::Point2f(0, 20)}, "SLANT"};
+  ReadWord read = det(0, 0, 100, 60, "SLANT");
+  EXPECT_EQ(match_end_to_end({slanted}, {read}).matched, 0u);
+  read.quad = slanted.quad;
+  EXPECT_EQ(match_end_to_end({slanted}, {read}).matched, 1u);
+  EXPECT_NEAR(quad_iou(slanted.quad, read.quad), 1.0, 1e-6);
+}
+
+TEST(GroundTruthReaders, IcdarWordListWithBomAndEscapedQuotes) {
+  test::TempDir dir;
+  {
+    std::ofstream out(dir.file("gt.txt"), std::ios::binary);
+    out << "\xEF\xBB\xBF"
+           "word_1.png, \"Genaxis Theatre\"\r\n"
+        << "word_2.png, \"\\\"SCAN\\\"\"\r\n";
+  }
+  const auto words = read_word_set(dir.path().string());
+  ASSERT_EQ(words.size(), 2u);
+  EXPECT_EQ(words[0].text, "Genaxis Theatre");
+  EXPECT_EQ(std::filesystem::path(words[0].image_path).filename(), "word_1.png");
+  EXPECT_EQ(words[1].text, "\"SCAN\"");
+  {
+    std::ofstream out(dir.file("gt.txt"));
+    out << "word_1.png Genaxis\n";
+  }
+  EXPECT_THROW(read_word_set(dir.path().string()), StartupError);
+  EXPECT_THROW(read_word_set(dir.file("nowhere")), StartupError);
+}
+
 TEST(GroundTruthReaders, MmocrLabels) {
   KEYFLEET_REQUIRE_DATA("words_mmocr/labels.json");
   const auto words = read_mmocr_labels(data_path.string());

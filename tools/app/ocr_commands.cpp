@@ -1,10 +1,12 @@
 // `keyfleet ocr`: the station's text readers on real photos (ICDAR 2015 end-to-end protocol,
-// cropped-word accuracy, time per image) and on one image.
+// cropped-word accuracy, time per photo and per word), with and without a lexicon, and on one
+// image.
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -14,97 +16,130 @@
 #include "commands.hpp"
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/eval/eval_runner.hpp"
 #include "keyfleet/eval/text_dataset_eval.hpp"
 #include "keyfleet/station/text/text_reader.hpp"
 
 namespace keyfleet::commands {
 namespace {
 
-std::string join_widths(const std::vector<int>& widths) {
-  std::string out;
-  for (int w : widths) out += (out.empty() ? "" : ", ") + std::to_string(w);
-  return out;
-}
-
 namespace fs = std::filesystem;
+
+// The sets `keyfleet ocr eval` knows, under the shared data folder: photos with word
+// quadrilaterals (ICDAR 2015 end-to-end) or cropped words (word accuracy).
+struct DataSet {
+  const char* name;
+  const char* folder;
+  bool photos;
+};
+constexpr DataSet kSets[] = {
+    {"test_clean", "icdar2015/test_clean", true},
+    {"test_blurred", "icdar2015/test_blurred", true},
+    {"train", "icdar2015/train", true},
+    {"train_sharp", "icdar2015/train_sharp", true},
+    {"train_words", "icdar2015/train_words", false},
+    {"words_mmocr", "words_mmocr", false},
+};
+
+const DataSet& find_set(const std::string& name) {
+  for (const auto& set : kSets)
+    if (name == set.name) return set;
+  std::string known;
+  for (const auto& set : kSets) known += std::string(known.empty() ? "" : ", ") + set.name;
+  throw StartupError("ocr eval: unknown set '" + name + "' (known: " + known + ")");
+}
 
 struct OcrOptions {
   TextReadingConfig params;
   std::vector<std::string> engines;
-  std::string data = "../shared/data";
-  std::size_t max_images = 0;
+  std::string data = std::getenv("KEYFLEET_DATA") ? std::getenv("KEYFLEET_DATA") : "../shared/data";
+  std::vector<std::string> sets = {"test_clean", "test_blurred", "train", "train_words",
+                                   "words_mmocr"};
+  std::size_t max_images = 100;
+  std::size_t max_words = 0;
+  std::vector<std::string> lexicons = {"none", "/usr/share/dict/american-english"};
+  std::string out;
   std::string image;
 };
 
-// Median ms per 640x480 keyframe: the train_sharp photos resized to that size.
-double keyframe_ms(station::TextReader& reader, const fs::path& images) {
-  std::vector<double> ms;
-  for (const auto& entry : fs::directory_iterator(images)) {
-    const cv::Mat photo = cv::imread(entry.path().string(), cv::IMREAD_COLOR);
-    if (photo.empty()) continue;
-    cv::Mat keyframe;
-    cv::resize(photo, keyframe, cv::Size(640, 480), 0, 0, cv::INTER_AREA);
-    ms.push_back(eval::median_read_ms(reader, keyframe, 1));
+std::string percent(double value) {
+  char text[16];
+  std::snprintf(text, sizeof text, "%.1f", 100 * value);
+  return text;
+}
+
+// One row of the table: an engine with or without a lexicon, over every set.
+std::string eval_row(station::TextReader& reader, const std::string& engine,
+                     const std::string& lexicon, const OcrOptions& o) {
+  std::string row = "| " + engine + " | " + lexicon;
+  std::vector<double> photo_ms, word_ms;
+  for (const auto& name : o.sets) {
+    const DataSet& set = find_set(name);
+    const std::string folder = (fs::path(o.data) / set.folder).string();
+    if (set.photos) {
+      const auto r = eval::evaluate_end_to_end(reader, folder, o.max_images);
+      row += " | " + percent(r.counts.recall()) + " / " + percent(r.counts.precision()) + " / **" +
+             percent(r.counts.f_score()) + "** (" + std::to_string(r.images) + ")";
+      photo_ms.push_back(r.median_ms);
+    } else {
+      const auto r = eval::evaluate_cropped_words(reader, folder, o.max_words);
+      row += " | " + percent(r.accuracy()) + " (" + std::to_string(r.correct) + "/" +
+             std::to_string(r.words) + ")";
+      word_ms.push_back(r.median_ms);
+    }
   }
-  if (ms.empty()) return 0.0;
-  std::nth_element(ms.begin(), ms.begin() + long(ms.size() / 2), ms.end());
-  return ms[ms.size() / 2];
+  const auto first_or_dash = [](const std::vector<double>& ms) {
+    char text[16];
+    std::snprintf(text, sizeof text, "%.0f", ms.empty() ? 0.0 : ms.front());
+    return ms.empty() ? std::string("-") : std::string(text);
+  };
+  return row + " | " + first_or_dash(photo_ms) + " | " + first_or_dash(word_ms) + " |\n";
 }
 
 void run_eval(const OcrOptions& o) {
-  const fs::path data(o.data);
-  const fs::path sharp = data / "icdar2015/train_sharp", blurred = data / "icdar2015/test_blurred";
-  const fs::path clean = data / "icdar2015/test_clean";
-  const fs::path words = data / "words_mmocr";
-  const bool with_blurred = o.max_images > 0 && fs::is_directory(blurred);
-  const bool with_clean = o.max_images > 0 && fs::is_directory(clean);
-  std::printf(
-      "min confidence %.2f, min word length %d, min long side %d px, thresholding %d, "
-      "segmenter widths %s, ppocr detector %s\n",
-      double(o.params.min_confidence), o.params.min_word_length, o.params.min_long_side,
-      o.params.thresholding_method, join_widths(o.params.segmenter_widths).c_str(),
-      o.params.ppocr_detector_size.c_str());
-  std::printf(
-      "end-to-end: ICDAR 2015 protocol (polygon IoU >= 0.5, case-insensitive text, ### "
-      "ignored); words: exact, case-insensitive\n\n");
-  std::printf("%-18s | %-20s | %-26s | %-26s | %-10s | %-8s %-8s\n", "engine",
-              "train_sharp R/P/F %", with_clean ? "test_clean R/P/F % (n)" : "test_clean",
-              with_blurred ? "test_blurred R/P/F % (n)" : "test_blurred", "words", "ms 1280",
-              "ms 640");
+  for (const auto& name : o.sets) {
+    const DataSet& set = find_set(name);
+    if (!fs::is_directory(fs::path(o.data) / set.folder))
+      throw StartupError("ocr eval: no " + name + " under " + o.data + " (set --data or " +
+                         "KEYFLEET_DATA to the shared data folder)");
+  }
+  std::string table = "| engine | lexicon";
+  std::string rule = "|---|---";
+  for (const auto& name : o.sets) {
+    table += std::string(" | ") + name +
+             (find_set(name).photos ? " R / P / F % (photos)" : " words % (right/all)");
+    rule += "|---";
+  }
+  table += " | ms a photo | ms a word |\n" + rule + "|---|---|\n";
+  std::printf("%s", table.c_str());
+  std::fflush(stdout);
   const std::vector<std::string> engines =
       o.engines.empty() ? station::text_reader_engines() : o.engines;
   for (const auto& engine : engines) {
-    TextReadingConfig params = o.params;
-    params.engine = engine;
-    std::unique_ptr<station::TextReader> reader;
-    try {
-      reader = station::make_text_reader(params);
-    } catch (const StartupError& e) {
-      // Comparing all engines: one whose optional models are absent (ppocr before
-      // scripts/fetch_ppocr.sh) is reported, not fatal. A named engine must start.
-      if (!o.engines.empty()) throw;
-      std::printf("%-18s | not available: %s\n", engine.c_str(), e.what());
-      continue;
+    for (const auto& lexicon : o.lexicons) {
+      TextReadingConfig params = o.params;
+      params.engine = engine;
+      params.lexicon = lexicon == "none" ? "" : lexicon;
+      std::unique_ptr<station::TextReader> reader;
+      try {
+        reader = station::make_text_reader(params);
+      } catch (const StartupError& e) {
+        // Comparing all engines: one whose optional models are absent (ppocr before
+        // scripts/fetch_ppocr.sh) is reported, not fatal. A named engine must start.
+        if (!o.engines.empty()) throw;
+        const std::string row =
+            "| " + engine + " | " + lexicon + " | not available: " + e.what() + " |\n";
+        std::printf("%s", row.c_str());
+        table += row;
+        continue;
+      }
+      const std::string row = eval_row(*reader, engine, fs::path(lexicon).filename().string(), o);
+      std::printf("%s", row.c_str());
+      std::fflush(stdout);
+      table += row;
     }
-    const auto e2e = eval::evaluate_end_to_end(*reader, sharp.string(), o.max_images);
-    // The first --max-images photos of a test set, as one cell of the table.
-    const auto test_set_cell = [&](bool wanted, const fs::path& set) {
-      if (!wanted) return std::string("(give --max-images)");
-      const auto r = eval::evaluate_end_to_end(*reader, set.string(), o.max_images);
-      char cell[64];
-      std::snprintf(cell, sizeof cell, "%5.1f %5.1f %5.1f (%zu)", 100 * r.counts.recall(),
-                    100 * r.counts.precision(), 100 * r.counts.f_score(), r.images);
-      return std::string(cell);
-    };
-    const std::string clean_cell = test_set_cell(with_clean, clean);
-    const std::string blurred_cell = test_set_cell(with_blurred, blurred);
-    const auto w = eval::evaluate_cropped_words(*reader, words.string());
-    std::printf("%-18s | %5.1f %5.1f %5.1f      | %-26s | %-26s | %2zu/%-2zu     | %8.0f %8.0f\n",
-                engine.c_str(), 100 * e2e.counts.recall(), 100 * e2e.counts.precision(),
-                100 * e2e.counts.f_score(), clean_cell.c_str(), blurred_cell.c_str(), w.correct,
-                w.words, e2e.median_ms, keyframe_ms(*reader, sharp / "images"));
-    std::fflush(stdout);
   }
+  if (!o.out.empty()) eval::write_text_file(o.out, table);
 }
 
 void run_read(const OcrOptions& o) {
@@ -154,6 +189,22 @@ void add_reader_options(CLI::App& command, OcrOptions& o) {
       .add_option("--ppocr-binary-threshold", o.params.ppocr_binary_threshold,
                   "ppocr: text probability of a text pixel (0..1)")
       ->check(CLI::Range(0.0, 1.0));
+  command
+      .add_option("--ppocr-box-threshold", o.params.ppocr_box_threshold,
+                  "ppocr: min mean text probability of a kept line (0..1)")
+      ->check(CLI::Range(0.0, 1.0));
+  command
+      .add_option("--ppocr-unclip-ratio", o.params.ppocr_unclip_ratio,
+                  "ppocr: how far line boxes are grown (0..10)")
+      ->check(CLI::Range(0.0, 10.0));
+  command
+      .add_option("--ppocr-space-probability", o.params.ppocr_space_probability,
+                  "ppocr: split words where a space is this likely (0 = where it wins)")
+      ->check(CLI::Range(0.0, 1.0));
+  command.add_option("--lexicon", o.params.lexicon,
+                     "word list to correct readings against (one word a line; empty = none)");
+  command.add_option("--ppocr-latin-only", o.params.ppocr_latin_only,
+                     "ppocr: read Latin letters, digits and punctuation only (true/false)");
 }
 
 }  // namespace
@@ -164,11 +215,19 @@ void add_ocr_commands(CLI::App& app) {
   ocr->require_subcommand(1);
 
   auto* eval = ocr->add_subcommand("eval", "engines on the shared data (ICDAR 2015 end-to-end)");
-  eval->add_option("--data", options->data, "the shared data folder");
+  eval->add_option("--data", options->data,
+                   "the shared data folder (default: $KEYFLEET_DATA, else ../shared/data)");
   eval->add_option("--engine", options->engines, "engines to compare (default: all)");
-  eval->add_option("--max-images", options->max_images,
-                   "images per ICDAR set; also adds test_clean and test_blurred (0 = "
-                   "train_sharp only)");
+  eval->add_option(
+          "--sets", options->sets,
+          "data sets, among test_clean test_blurred train train_sharp train_words words_mmocr")
+      ->delimiter(',');
+  eval->add_option("--max-images", options->max_images, "first photos of each photo set (0 = all)");
+  eval->add_option("--max-words", options->max_words, "first words of each word set (0 = all)");
+  eval->add_option("--lexicons", options->lexicons,
+                   "a row per engine and word list ('none' = without)")
+      ->delimiter(',');
+  eval->add_option("--out", options->out, "also write the table (Markdown) to this file");
   add_reader_options(*eval, *options);
   eval->callback([options] { run_reporting([&] { run_eval(*options); }); });
 

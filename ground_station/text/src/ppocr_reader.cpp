@@ -60,7 +60,10 @@ PpocrRecognizer make_recognizer(const TextReadingConfig& params) {
   for (const int width : kRecogniserWidths)
     files[width] =
         locate(params, "ppocr_rec_w" + std::to_string(width) + ".onnx", "ppocr recogniser");
-  return PpocrRecognizer(files, locate(params, "ppocr_keys_v1.txt", "ppocr character list"));
+  if (!(params.ppocr_space_probability >= 0 && params.ppocr_space_probability <= 1))
+    throw StartupError("text reader: ppocr_space_probability must be within 0..1");
+  return PpocrRecognizer(files, locate(params, "ppocr_keys_v1.txt", "ppocr character list"),
+                         {params.ppocr_latin_only, float(params.ppocr_space_probability)});
 }
 
 float quad_area(const TextQuad& quad) {
@@ -99,14 +102,17 @@ std::vector<ReadWord> PpocrReader::read(const cv::Mat& bgr) {
     const float w = float(image.cols), h = float(image.rows);
     lines.push_back({cv::Point2f(0, 0), cv::Point2f(w, 0), cv::Point2f(w, h), cv::Point2f(0, h)});
   } else {
-    std::vector<DetectedText> found = detector_.detect(image);
-    if (int(found.size()) > params_.max_regions) {
-      std::stable_sort(found.begin(), found.end(), [](const auto& a, const auto& b) {
-        return quad_area(a.quad) > quad_area(b.quad);
-      });
-      found.resize(std::size_t(params_.max_regions));
-    }
-    for (const auto& text : found) lines.push_back(text.quad);
+    for (const auto& text : detector_.detect(image)) lines.push_back(text.quad);
+  }
+  return read_lines(image, std::move(lines));
+}
+
+std::vector<ReadWord> PpocrReader::read_lines(const cv::Mat& image, std::vector<TextQuad> lines) {
+  if (int(lines.size()) > params_.max_regions) {
+    std::stable_sort(lines.begin(), lines.end(), [](const TextQuad& a, const TextQuad& b) {
+      return quad_area(a) > quad_area(b);
+    });
+    lines.resize(std::size_t(params_.max_regions));
   }
   const cv::Rect frame(0, 0, image.cols, image.rows);
   std::vector<ReadWord> words;
@@ -115,7 +121,7 @@ std::vector<ReadWord> PpocrReader::read(const cv::Mat& bgr) {
     if (!line) continue;
     for (const auto& word : line->words) {
       const std::vector<cv::Point2f> corners(word.quad.begin(), word.quad.end());
-      ReadWord read{word.text, word.confidence, cv::boundingRect(corners) & frame};
+      ReadWord read{word.text, word.confidence, cv::boundingRect(corners) & frame, word.quad};
       if (keep_word(read, params_)) words.push_back(std::move(read));
     }
   }

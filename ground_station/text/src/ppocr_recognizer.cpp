@@ -74,11 +74,66 @@ cv::Mat crop_quad(const cv::Mat& image, const TextQuad& q, bool* rotated) {
   return crop;
 }
 
+std::vector<bool> latin_classes(const std::vector<std::string>& classes) {
+  std::vector<bool> allowed(classes.size(), false);
+  for (std::size_t c = 0; c < classes.size(); ++c) {
+    const std::string& s = classes[c];
+    const auto b0 = s.empty() ? 0u : static_cast<unsigned char>(s[0]);
+    if (c == 0 || (s.size() == 1 && b0 >= 0x20 && b0 < 0x7F)) {
+      allowed[c] = true;  // the blank and printable ASCII, the space included
+    } else if (s.size() == 2 && b0 >= 0xC3 && b0 <= 0xC9) {
+      allowed[c] = true;  // U+00C0..U+024F: accented Latin letters
+    } else if (s == "\xC2\xA3" || s == "\xE2\x82\xAC" || s == "\xC2\xB0") {
+      allowed[c] = true;  // pound, euro, degree
+    }
+  }
+  return allowed;
+}
+
+namespace {
+
+// One emitted character: its class and the time steps of its run.
+struct CtcCharacter {
+  int cls = 0;
+  int first_step = 0, last_step = 0;
+  float probability = 0;  // of its class, at the run's first step
+};
+
+std::vector<CtcCharacter> ctc_characters(const cv::Mat& probs, const std::vector<bool>& allowed) {
+  std::vector<CtcCharacter> characters;
+  int previous = 0;
+  for (int t = 0; t < probs.rows; ++t) {
+    const float* row = probs.ptr<float>(t);
+    int c = 0;
+    for (int k = 1; k < probs.cols; ++k)
+      if ((allowed.empty() || allowed[std::size_t(k)]) && row[k] > row[c]) c = k;
+    if (c != 0 && c == previous) {  // the same character still running
+      characters.back().last_step = t;
+      continue;
+    }
+    previous = c;
+    if (c != 0) characters.push_back({c, t, t, row[c]});  // blanks separate repeats, emit nothing
+  }
+  return characters;
+}
+
+// The largest probability of a space class at steps first..last.
+float space_probability(const cv::Mat& probs, const std::vector<int>& space_classes, int first,
+                        int last) {
+  float best = 0;
+  for (int t = std::max(first, 0); t <= last && t < probs.rows; ++t)
+    for (const int c : space_classes) best = std::max(best, probs.at<float>(t, c));
+  return best;
+}
+
+}  // namespace
+
 RecognizedLine ctc_decode(const cv::Mat& probs, const std::vector<std::string>& classes,
-                          int input_width, int content_width, const TextQuad& quad, bool rotated) {
+                          int input_width, int content_width, const TextQuad& quad, bool rotated,
+                          const CtcOptions& options) {
   RecognizedLine line;
   if (probs.empty() || probs.type() != CV_32F || probs.cols != int(classes.size()) ||
-      content_width <= 0)
+      content_width <= 0 || (!options.allowed.empty() && options.allowed.size() != classes.size()))
     return line;
   // Fraction of the line's content covered by one time step.
   const float step_fraction = float(input_width) / float(probs.rows) / float(content_width);
@@ -88,12 +143,16 @@ RecognizedLine ctc_decode(const cv::Mat& probs, const std::vector<std::string>& 
   const cv::Point2f& bottom_start = rotated ? quad[0] : quad[3];
   const cv::Point2f& bottom_end = rotated ? quad[3] : quad[2];
 
+  const std::vector<CtcCharacter> characters = ctc_characters(probs, options.allowed);
+  std::vector<int> space_classes;
+  for (std::size_t c = 0; c < classes.size(); ++c)
+    if (is_space(classes[c])) space_classes.push_back(int(c));
   RecognizedWord word;
   float confidence_sum = 0;
-  int characters = 0, first_step = 0, last_step = 0;
+  int count = 0, first_step = 0, last_step = 0;
   const auto finish_word = [&] {
-    if (characters > 0) {
-      word.confidence = confidence_sum / float(characters);
+    if (count > 0) {
+      word.confidence = confidence_sum / float(count);
       const float f0 = std::clamp(float(first_step) * step_fraction, 0.f, 1.f);
       const float f1 = std::clamp(float(last_step + 1) * step_fraction, 0.f, 1.f);
       word.quad = {lerp(top_start, top_end, f0), lerp(top_start, top_end, f1),
@@ -102,32 +161,23 @@ RecognizedLine ctc_decode(const cv::Mat& probs, const std::vector<std::string>& 
     }
     word = RecognizedWord{};
     confidence_sum = 0;
-    characters = 0;
+    count = 0;
   };
-
-  int previous = 0;
-  for (int t = 0; t < probs.rows; ++t) {
-    double best = 0;
-    cv::Point best_at;
-    cv::minMaxLoc(probs.row(t), nullptr, &best, nullptr, &best_at);
-    const int c = best_at.x;
-    if (c != 0 && c == previous) {  // the same character still running
-      if (characters > 0 && !is_space(classes[std::size_t(c)])) last_step = t;
-      continue;
-    }
-    previous = c;
-    if (c == 0) continue;  // CTC blank: separates repeats, emits nothing
-    const std::string& character = classes[std::size_t(c)];
-    if (is_space(character)) {
+  for (const CtcCharacter& character : characters) {
+    const std::string& text = classes[std::size_t(character.cls)];
+    if (is_space(text)) {
       finish_word();
       continue;
     }
-    if (characters == 0) first_step = t;
-    last_step = t;
-    word.text += character;
-    // A character's confidence is its probability at the first step of its run.
-    confidence_sum += float(best);
-    ++characters;
+    if (count > 0 && options.space_probability > 0 &&
+        space_probability(probs, space_classes, last_step + 1, character.first_step) >=
+            options.space_probability)
+      finish_word();
+    if (count == 0) first_step = character.first_step;
+    last_step = character.last_step;
+    word.text += text;
+    confidence_sum += character.probability;
+    ++count;
   }
   finish_word();
   return line;
@@ -136,8 +186,10 @@ RecognizedLine ctc_decode(const cv::Mat& probs, const std::vector<std::string>& 
 }  // namespace ppocr
 
 PpocrRecognizer::PpocrRecognizer(const std::map<int, std::string>& models_by_width,
-                                 const std::string& keys_path)
+                                 const std::string& keys_path, RecognizerOptions options)
     : classes_(load_classes(keys_path)) {
+  if (options.latin_only) options_.allowed = ppocr::latin_classes(classes_);
+  options_.space_probability = options.space_probability;
   if (models_by_width.empty()) throw StartupError("ppocr recogniser: no model files");
   for (const auto& [width, path] : models_by_width) {
     if (width <= 0 || width % 8 != 0)
@@ -192,7 +244,7 @@ std::optional<RecognizedLine> PpocrRecognizer::recognize(const cv::Mat& image,
     int content_width = 0;
     const cv::Mat probs = class_probabilities(make_blob(crop, width, content_width), width);
     if (probs.empty()) return std::nullopt;
-    return ppocr::ctc_decode(probs, classes_, width, content_width, quad, rotated);
+    return ppocr::ctc_decode(probs, classes_, width, content_width, quad, rotated, options_);
   } catch (const cv::Exception&) {
     return std::nullopt;
   }

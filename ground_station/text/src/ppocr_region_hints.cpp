@@ -115,28 +115,4 @@ std::vector<ReadWord> PpocrReader::read_with_hints(const cv::Mat& bgr,
   return words;
 }
 
-// The recognition half of read(); keep the two alike.
-std::vector<ReadWord> PpocrReader::read_lines(const cv::Mat& image, std::vector<TextQuad> lines) {
-  if (int(lines.size()) > params_.max_regions) {
-    const auto area = [](const TextQuad& q) {
-      return std::abs(cv::contourArea(std::vector<cv::Point2f>(q.begin(), q.end())));
-    };
-    std::stable_sort(lines.begin(), lines.end(),
-                     [&](const TextQuad& a, const TextQuad& b) { return area(a) > area(b); });
-    lines.resize(std::size_t(params_.max_regions));
-  }
-  const cv::Rect frame(0, 0, image.cols, image.rows);
-  std::vector<ReadWord> words;
-  for (const auto& quad : lines) {
-    const auto line = recognizer_.recognize(image, quad);
-    if (!line) continue;
-    for (const auto& word : line->words) {
-      const std::vector<cv::Point2f> corners(word.quad.begin(), word.quad.end());
-      ReadWord read{word.text, word.confidence, cv::boundingRect(corners) & frame};
-      if (keep_word(read, params_)) words.push_back(std::move(read));
-    }
-  }
-  return words;
-}
-
 }  // namespace keyfleet::station

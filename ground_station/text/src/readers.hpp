@@ -5,6 +5,7 @@
 #include <optional>
 #include <utility>
 
+#include "keyfleet/station/text/lexicon.hpp"
 #include "keyfleet/station/text/text_reader.hpp"
 #include "keyfleet/vision/text_segmenter.hpp"
 #include "ppocr_detector.hpp"
@@ -62,13 +63,30 @@ class PpocrReader final : public TextReader {
                                         const std::vector<cv::Rect>& hints) override;
 
  private:
-  // Recognises each line (the largest `max_regions`) and keeps the words keep_word() accepts.
+  // Recognises each line (the largest `max_regions`) and keeps the words keep_word() accepts:
+  // the half of read() that read_with_hints() shares.
   std::vector<ReadWord> read_lines(const cv::Mat& image, std::vector<TextQuad> lines);
 
   TextReadingConfig params_;
   PpocrDetector detector_;
   PpocrRecognizer recognizer_;
   std::unique_ptr<PpocrDetector> hint_detector_;  // region_hints other than "off"
+};
+
+// Any engine's words checked against a word list (apply_lexicon): corrected, or dropped.
+class LexiconReader final : public TextReader {
+ public:
+  LexiconReader(std::unique_ptr<TextReader> engine, const std::string& lexicon_path);
+  std::vector<ReadWord> read(const cv::Mat& bgr) override;
+  std::vector<ReadWord> read_with_hints(const cv::Mat& bgr,
+                                        const std::vector<cv::Rect>& hints) override;
+  std::string name() const override { return engine_->name() + "+lexicon"; }
+
+ private:
+  std::vector<ReadWord> listed(std::vector<ReadWord> read) const;  // corrected or dropped
+
+  std::unique_ptr<TextReader> engine_;
+  Lexicon lexicon_;
 };
 
 namespace ppocr {

@@ -1,8 +1,19 @@
+#include <opencv2/imgproc.hpp>
+
 #include <cctype>
+#include <vector>
 
 #include "keyfleet/station/text/text_reader.hpp"
 
 namespace keyfleet::station {
+
+std::array<cv::Point2f, 4> outline_of(const ReadWord& word) {
+  const std::vector<cv::Point2f> corners(word.quad.begin(), word.quad.end());
+  if (cv::contourArea(corners) > 0) return word.quad;
+  const auto x0 = float(word.box.x), y0 = float(word.box.y);
+  const auto x1 = float(word.box.x + word.box.width), y1 = float(word.box.y + word.box.height);
+  return {cv::Point2f(x0, y0), cv::Point2f(x1, y0), cv::Point2f(x1, y1), cv::Point2f(x0, y1)};
+}
 
 bool keep_word(const ReadWord& word, const TextReadingConfig& config) {
   // Compared in float, the precision the engines report confidences in.

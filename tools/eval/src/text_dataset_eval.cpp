@@ -68,11 +68,12 @@ EndToEndResult evaluate_end_to_end(station::TextReader& reader, const std::strin
   return result;
 }
 
-WordAccuracyResult evaluate_cropped_words(station::TextReader& reader,
-                                          const std::string& words_dir) {
+WordAccuracyResult evaluate_cropped_words(station::TextReader& reader, const std::string& words_dir,
+                                          std::size_t max_words) {
   WordAccuracyResult result;
   std::vector<double> ms;
-  for (const auto& word : read_mmocr_labels((fs::path(words_dir) / "labels.json").string())) {
+  for (const auto& word : read_word_set(words_dir)) {
+    if (max_words && result.words >= max_words) break;
     const cv::Mat image = cv::imread(word.image_path, cv::IMREAD_COLOR);
     if (image.empty()) throw StartupError("unreadable word image " + word.image_path);
     const std::string reading = cropped_word_reading(timed_read(reader, image, ms));

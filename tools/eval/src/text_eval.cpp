@@ -39,24 +39,34 @@ std::size_t trailing_mark(const std::string& s) {
   return 0;
 }
 
-struct Overlap {
-  double intersection = 0;
-  double quad_area = 0;
-};
+using Quad = std::array<cv::Point2f, 4>;
 
-Overlap overlap_of(const std::array<cv::Point2f, 4>& quad, const cv::Rect& rect) {
-  Overlap o;
-  if (rect.width <= 0 || rect.height <= 0) return o;
+Quad corners_of(const cv::Rect& rect) {
+  const auto x0 = float(rect.x), y0 = float(rect.y);
+  const auto x1 = float(rect.x + rect.width), y1 = float(rect.y + rect.height);
+  return {cv::Point2f(x0, y0), cv::Point2f(x1, y0), cv::Point2f(x1, y1), cv::Point2f(x0, y1)};
+}
+
+std::vector<cv::Point2f> hull_of(const Quad& quad) {
   std::vector<cv::Point2f> hull;
   cv::convexHull(std::vector<cv::Point2f>(quad.begin(), quad.end()), hull);
-  o.quad_area = cv::contourArea(hull);
-  if (o.quad_area <= 0) return o;
-  const std::vector<cv::Point2f> box = {{float(rect.x), float(rect.y)},
-                                        {float(rect.x + rect.width), float(rect.y)},
-                                        {float(rect.x + rect.width), float(rect.y + rect.height)},
-                                        {float(rect.x), float(rect.y + rect.height)}};
+  return hull;
+}
+
+struct Overlap {
+  double intersection = 0;
+  double area_a = 0, area_b = 0;
+};
+
+// Ground-truth quads are convex in practice; their convex hull is what is compared.
+Overlap overlap_of(const Quad& a, const Quad& b) {
+  Overlap o;
+  const auto hull_a = hull_of(a), hull_b = hull_of(b);
+  o.area_a = cv::contourArea(hull_a);
+  o.area_b = cv::contourArea(hull_b);
+  if (o.area_a <= 0 || o.area_b <= 0) return o;
   std::vector<cv::Point2f> common;
-  o.intersection = std::max(0.0, double(cv::intersectConvexConvex(hull, box, common, true)));
+  o.intersection = std::max(0.0, double(cv::intersectConvexConvex(hull_a, hull_b, common, true)));
   return o;
 }
 
@@ -82,10 +92,14 @@ double EndToEndCounts::f_score() const {
   return r + p > 0 ? 2 * r * p / (r + p) : 0.0;
 }
 
+double quad_iou(const std::array<cv::Point2f, 4>& a, const std::array<cv::Point2f, 4>& b) {
+  const Overlap o = overlap_of(a, b);
+  const double uni = o.area_a + o.area_b - o.intersection;
+  return uni > 0 && o.area_a > 0 && o.area_b > 0 ? o.intersection / uni : 0.0;
+}
+
 double quad_rect_iou(const std::array<cv::Point2f, 4>& quad, const cv::Rect& rect) {
-  const Overlap o = overlap_of(quad, rect);
-  const double uni = o.quad_area + double(rect.area()) - o.intersection;
-  return uni > 0 && rect.area() > 0 ? o.intersection / uni : 0.0;
+  return rect.width > 0 && rect.height > 0 ? quad_iou(quad, corners_of(rect)) : 0.0;
 }
 
 bool transcriptions_match(const std::string& gt_text, const std::string& detected,
@@ -108,7 +122,7 @@ EndToEndCounts match_end_to_end(const std::vector<GtWord>& truth,
   for (std::size_t g = 0; g < truth.size(); ++g) {
     if (truth[g].dont_care) continue;
     for (std::size_t d = 0; d < detections.size(); ++d) {
-      const double iou = quad_rect_iou(truth[g].quad, detections[d].box);
+      const double iou = quad_iou(truth[g].quad, station::outline_of(detections[d]));
       if (iou >= params.min_iou &&
           transcriptions_match(truth[g].text, detections[d].text, params.allow_gt_edge_punctuation))
         pairs.emplace_back(iou, g, d);
@@ -126,11 +140,11 @@ EndToEndCounts match_end_to_end(const std::vector<GtWord>& truth,
   for (const auto& word : truth) counts.gt_words += word.dont_care ? 0 : 1;
   for (std::size_t d = 0; d < detections.size(); ++d) {
     bool ignored = false;
-    const double area = double(detections[d].box.area());
+    const Quad outline = station::outline_of(detections[d]);
     for (std::size_t g = 0; !det_used[d] && !ignored && g < truth.size(); ++g) {
-      if (!truth[g].dont_care || area <= 0) continue;
-      ignored = overlap_of(truth[g].quad, detections[d].box).intersection / area >
-                params.dont_care_overlap;
+      if (!truth[g].dont_care) continue;
+      const Overlap o = overlap_of(outline, truth[g].quad);
+      ignored = o.area_a > 0 && o.intersection / o.area_a > params.dont_care_overlap;
     }
     counts.detections += ignored ? 0 : 1;
   }
@@ -189,6 +203,44 @@ std::vector<CroppedWord> read_mmocr_labels(const std::string& labels_json) {
     throw StartupError("malformed word labels " + labels_json + ": " + e.what());
   }
   return words;
+}
+
+std::vector<CroppedWord> read_icdar_word_gt(const std::string& gt_txt) {
+  namespace fs = std::filesystem;
+  std::ifstream in(gt_txt, std::ios::binary);
+  if (!in) throw StartupError("cannot read word ground truth " + gt_txt);
+  const fs::path folder = fs::path(gt_txt).parent_path();
+  std::vector<CroppedWord> words;
+  std::string line;
+  int line_number = 0;
+  while (std::getline(in, line)) {
+    ++line_number;
+    if (line_number == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
+    while (!line.empty() && (line.back() == '\r' || line.back() == '\n')) line.pop_back();
+    if (line.empty()) continue;
+    const std::size_t comma = line.find(", \"");
+    if (comma == std::string::npos || line.size() < comma + 4 || line.back() != '"')
+      throw StartupError(gt_txt + ":" + std::to_string(line_number) +
+                         ": expected 'word_N.png, \"TEXT\"'");
+    CroppedWord word;
+    word.image_path = (folder / line.substr(0, comma)).string();
+    const std::string quoted = line.substr(comma + 3, line.size() - comma - 4);
+    for (std::size_t i = 0; i < quoted.size(); ++i) {
+      if (quoted[i] == '\\' && i + 1 < quoted.size()) ++i;
+      word.text += quoted[i];
+    }
+    words.push_back(std::move(word));
+  }
+  return words;
+}
+
+std::vector<CroppedWord> read_word_set(const std::string& folder) {
+  namespace fs = std::filesystem;
+  const fs::path labels = fs::path(folder) / "labels.json";
+  if (fs::exists(labels)) return read_mmocr_labels(labels.string());
+  const fs::path gt = fs::path(folder) / "gt.txt";
+  if (fs::exists(gt)) return read_icdar_word_gt(gt.string());
+  throw StartupError("no word set in " + folder + " (neither labels.json nor gt.txt)");
 }
 
 std::string cropped_word_reading(const std::vector<station::ReadWord>& words) {

@@ -208,6 +208,17 @@ struct TextReadingConfig {
   double ppocr_binary_threshold = 0.3;  // 0..1: text probability of a text pixel
   double ppocr_box_threshold = 0.6;     // 0..1: min mean probability inside a kept line box
   double ppocr_unclip_ratio = 1.5;      // line boxes grown by area * ratio / perimeter px
+  // The recogniser's list is mostly Chinese: on Latin-script streets its Chinese classes only
+  // ever produce junk, so by default it reads Latin letters, digits and punctuation only.
+  bool ppocr_latin_only = true;
+  // A word also ends between two characters where the space class reaches this probability
+  // though another class wins (the model often reads "you know" as "youknow", the space at
+  // 0.2-0.3 between them); 0 = split only where the space wins.
+  double ppocr_space_probability = 0.1;
+  // A word list (one word a line, e.g. Debian's /usr/share/dict/american-english or a mission's
+  // expected words): readings of 3+ letters without digits are corrected to their nearest
+  // listed word or dropped (station::apply_lexicon). Empty = read without a lexicon.
+  std::string lexicon;
 };
 
 // How putative feature matches between two keyframes are verified geometrically: sparse Vector

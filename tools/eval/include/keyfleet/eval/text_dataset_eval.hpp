@@ -25,13 +25,14 @@ EndToEndResult evaluate_end_to_end(station::TextReader& reader, const std::strin
 struct WordAccuracyResult {
   std::size_t words = 0;
   std::size_t correct = 0;  // reading equals the label, case-insensitively
-  double median_ms = 0;
+  double median_ms = 0;     // per word, wall clock
   double accuracy() const { return words ? double(correct) / double(words) : 0.0; }
 };
 
-// `words_dir` holds labels.json and imgs/. Throws StartupError if they are missing.
-WordAccuracyResult evaluate_cropped_words(station::TextReader& reader,
-                                          const std::string& words_dir);
+// `words_dir` holds a word set (read_word_set). `max_words` 0 = all, else the first ones.
+// Throws StartupError if the set or one of its images is missing.
+WordAccuracyResult evaluate_cropped_words(station::TextReader& reader, const std::string& words_dir,
+                                          std::size_t max_words = 0);
 
 // Median wall-clock milliseconds of `repetitions` reads of `image` (after one warm-up read).
 double median_read_ms(station::TextReader& reader, const cv::Mat& image, int repetitions);

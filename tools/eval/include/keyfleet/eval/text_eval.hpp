@@ -1,7 +1,7 @@
 #pragma once
 // ICDAR 2015 end-to-end evaluation of text readers ("Incidental Scene Text", task 4.4):
 // one-to-one matching of detected and ground-truth words by polygon IoU >= 0.5 (the GT
-// quadrilateral against the detected rectangle) and case-insensitive transcription; GT words
+// quadrilateral against the detection's outline) and case-insensitive transcription; GT words
 // "###" are "don't care". Also word accuracy on cropped words, and the readers of the two
 // ground-truth formats in the shared data.
 #include <opencv2/core.hpp>
@@ -40,7 +40,9 @@ struct EndToEndCounts {
   double f_score() const;  // harmonic mean; 0 when both are 0
 };
 
-// Polygon IoU between a GT quadrilateral (its convex hull) and a rectangle.
+// Polygon IoU of two quadrilaterals (their convex hulls), and of a quadrilateral and a rectangle.
+// A detection is compared by its outline (station::outline_of: its quad, else its box).
+double quad_iou(const std::array<cv::Point2f, 4>& a, const std::array<cv::Point2f, 4>& b);
 double quad_rect_iou(const std::array<cv::Point2f, 4>& quad, const cv::Rect& rect);
 
 // The ICDAR transcription rule (case-insensitive, see EndToEndParams).
@@ -66,6 +68,13 @@ struct CroppedWord {
 // mmocr `labels.json` (data_list[].img_path under `imgs/`, instances[0].text). Throws
 // StartupError on a missing or malformed file.
 std::vector<CroppedWord> read_mmocr_labels(const std::string& labels_json);
+
+// ICDAR 2015 word-recognition ground truth: `word_N.png, "TEXT"` a line (a byte-order mark
+// first; \" is a quote inside the text); images next to it. Throws StartupError on a bad line.
+std::vector<CroppedWord> read_icdar_word_gt(const std::string& gt_txt);
+
+// The cropped words of a folder in either format (labels.json, else gt.txt).
+std::vector<CroppedWord> read_word_set(const std::string& folder);
 
 // What a reader says a cropped word is: its words left to right, joined without spaces.
 std::string cropped_word_reading(const std::vector<station::ReadWord>& words);

@@ -3,6 +3,7 @@
 // keyframe. Real engines use Tesseract 5; tests may substitute their own reader.
 #include <opencv2/core.hpp>
 
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -15,7 +16,13 @@ struct ReadWord {
   std::string text;      // UTF-8
   float confidence = 0;  // 0..1
   cv::Rect box;          // in the input image's pixels
+  // The word's quadrilateral (clockwise from its top-left corner) where the engine knows it,
+  // for slanted text; all zero where it does not (then `box` is the outline).
+  std::array<cv::Point2f, 4> quad{};
 };
+
+// `word.quad` where it has an area, else the corners of `word.box`.
+std::array<cv::Point2f, 4> outline_of(const ReadWord& word);
 
 class TextReader {
  public:
