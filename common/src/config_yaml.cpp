@@ -216,6 +216,15 @@ void visit(V& v, SemanticConfig& c) {
 }
 
 template <class V>
+void visit(V& v, TextRegionsConfig& c) {
+  v.field("enabled", c.enabled);
+  v.field("max_regions", c.max_regions, between(0, 1000));
+  v.field("min_area_px", c.min_area_px, between(0, 1 << 26));
+  v.field("merge_gap", c.merge_gap, between(0.0, 100.0));
+  v.field("min_line_overlap", c.min_line_overlap, between(0.0, 1.0));
+}
+
+template <class V>
 void visit(V& v, SelectorConfig& c) {
   v.field("strategy", c.strategy);
   v.field("density", c.density, between(1, 1000));
@@ -223,6 +232,7 @@ void visit(V& v, SelectorConfig& c) {
   v.section("trigger", c.trigger);
   v.section("quality", c.quality);
   v.section("semantic", c.semantic);
+  v.section("text_regions", c.text_regions);
 }
 
 template <class V>
@@ -264,6 +274,7 @@ void visit(V& v, StationLimits& c) {
   v.field("max_image_bytes", c.max_image_bytes, at_least<std::uint64_t>(1));
   v.field("max_width", c.max_width, at_least<std::uint32_t>(1));
   v.field("max_height", c.max_height, at_least<std::uint32_t>(1));
+  v.field("max_text_regions", c.max_text_regions, between(0, 100000));
 }
 
 template <class V>
@@ -285,6 +296,9 @@ void visit(V& v, TextReadingConfig& c) {
   v.field("region_line_height", c.region_line_height, between(8, 1024));
   v.field("max_regions", c.max_regions, between(1, 10000));
   v.field("cut_word_margin", c.cut_word_margin, between(-1, 1000));
+  v.field("region_hints", c.region_hints, one_of({"off", "only", "first"}));
+  v.field("region_hint_detector_size", c.region_hint_detector_size, detector_size_check());
+  v.field("region_hint_padding", c.region_hint_padding, between(0.0, 4.0));
   v.field("ppocr_models", c.ppocr_models);
   v.field("ppocr_detector_size", c.ppocr_detector_size, detector_size_check());
   v.field("ppocr_binary_threshold", c.ppocr_binary_threshold, between(0.0, 1.0));

@@ -34,6 +34,11 @@ SqliteStatement& SqliteStatement::bind(int index, const std::string& value) {
   return *this;
 }
 SqliteStatement& SqliteStatement::bind(int index, const std::vector<std::uint8_t>& blob) {
+  // An empty vector's data() may be null, which SQLite would bind as NULL, not as an empty blob.
+  if (blob.empty()) {
+    check(sqlite3_bind_zeroblob(stmt_, index, 0), "bind");
+    return *this;
+  }
   check(sqlite3_bind_blob64(stmt_, index, blob.data(), blob.size(), SQLITE_TRANSIENT), "bind");
   return *this;
 }
@@ -100,5 +105,14 @@ SqliteStatement SqliteDb::prepare(const std::string& sql) {
 }
 
 std::int64_t SqliteDb::changes() const { return sqlite3_changes64(db_); }
+
+void SqliteDb::add_column_if_missing(const std::string& table, const std::string& column,
+                                     const std::string& declaration) {
+  auto columns = prepare("SELECT name FROM pragma_table_info(?)");
+  columns.bind(1, table);
+  while (columns.step())
+    if (columns.text(0) == column) return;
+  exec("ALTER TABLE " + table + " ADD COLUMN " + column + " " + declaration);
+}
 
 }  // namespace keyfleet

@@ -22,6 +22,12 @@ void to_wire(const Keyframe& in, wire::Keyframe& out) {
   wire::Pose& p = out.camera_pose();
   p.tx(pose.tx), p.ty(pose.ty), p.tz(pose.tz);
   p.qx(pose.qx), p.qy(pose.qy), p.qz(pose.qz), p.qw(pose.qw);
+  out.text_regions().clear();
+  for (const TextRegion& r : in.text_regions) {
+    wire::TextRegion w;
+    w.x(r.x), w.y(r.y), w.w(r.w), w.h(r.h);
+    out.text_regions().push_back(w);
+  }
 }
 
 Keyframe from_wire(wire::Keyframe&& in) {
@@ -44,6 +50,8 @@ Keyframe from_wire(wire::Keyframe&& in) {
     const wire::Pose& p = in.camera_pose();
     out.camera_pose = Pose{p.tx(), p.ty(), p.tz(), p.qx(), p.qy(), p.qz(), p.qw()};
   }
+  out.text_regions.reserve(in.text_regions().size());
+  for (const auto& r : in.text_regions()) out.text_regions.push_back({r.x(), r.y(), r.w(), r.h()});
   return out;
 }
 

@@ -7,7 +7,8 @@ std::string to_string(const KeyframeKey& key) {
 }
 
 AnalysisJob job_for(const Keyframe& k) {
-  return AnalysisJob{{k.robot_id, k.sequence_number}, k.capture_time_ns, k.camera_pose, k.image};
+  return AnalysisJob{
+      {k.robot_id, k.sequence_number}, k.capture_time_ns, k.camera_pose, k.image, k.text_regions};
 }
 
 const char* to_string(AnalysisStatus status) {

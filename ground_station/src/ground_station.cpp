@@ -32,16 +32,35 @@ KeyframeAck GroundStation::handle(const ReceivedKeyframe& received, std::int64_t
     return ack;
   }
   note_robot(k.robot_id);
-  if (store_.store(k, received.serialized_bytes, now_ns) == StoreOutcome::kDuplicate) {
+  // Bad text regions are fixed or dropped, never a reason to refuse the image; the copy is
+  // made only then.
+  const TextRegionReview review = review_text_regions(
+      k.text_regions, k.width, k.height, std::size_t(std::max(0, limits_.max_text_regions)));
+  std::optional<Keyframe> fixed;
+  if (review.changed()) {
+    fixed = k;
+    fixed->text_regions = review.regions;
+    if (warned_text_regions_.insert(k.robot_id).second)
+      logger_->warn(
+          "keyframe {} from {}: text regions {} (logged once per robot; the keyframe is kept)",
+          k.sequence_number, k.robot_id, review.summary());
+  }
+  return store_checked(fixed ? *fixed : k, received.serialized_bytes, now_ns);
+}
+
+KeyframeAck GroundStation::store_checked(const Keyframe& k, std::uint64_t serialized_bytes,
+                                         std::int64_t now_ns) {
+  KeyframeAck ack{k.robot_id, k.sequence_number, AckStatus::kStored, {}};
+  if (store_.store(k, serialized_bytes, now_ns) == StoreOutcome::kDuplicate) {
     ack.status = AckStatus::kDuplicate;
     logger_->debug("duplicate keyframe {} from {} acknowledged again", k.sequence_number,
                    k.robot_id);
     return ack;
   }
-  log_.keyframe(k, received.serialized_bytes, now_ns);
+  log_.keyframe(k, serialized_bytes, now_ns);
   if (on_stored_) on_stored_(k);
   logger_->debug("stored keyframe {} from {} ({} bytes)", k.sequence_number, k.robot_id,
-                 received.serialized_bytes);
+                 serialized_bytes);
   return ack;
 }
 

@@ -12,6 +12,13 @@ double elapsed_ms(std::chrono::steady_clock::time_point start) {
       .count();
 }
 
+std::vector<cv::Rect> hint_rects(const std::vector<TextRegion>& regions) {
+  std::vector<cv::Rect> out;
+  out.reserve(regions.size());
+  for (const TextRegion& r : regions) out.emplace_back(r.x, r.y, r.w, r.h);
+  return out;
+}
+
 }  // namespace
 
 KeyframeAnalyzer::KeyframeAnalyzer(std::unique_ptr<TextReader> reader, PlaceRecognizer* places,
@@ -47,7 +54,7 @@ AnalysisResult KeyframeAnalyzer::analyse(const AnalysisJob& job) {
   }
   if (reader_) {
     const auto start = std::chrono::steady_clock::now();
-    result.words = reader_->read(image);
+    result.words = reader_->read_with_hints(image, hint_rects(job.text_regions));
     result.text_ms = elapsed_ms(start);
   }
   return result;

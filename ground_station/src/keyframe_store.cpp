@@ -3,6 +3,7 @@
 #include <map>
 
 #include "keyfleet/common/fnv1a.hpp"
+#include "keyfleet/common/text_region_blob.hpp"
 
 namespace keyfleet::station {
 namespace {
@@ -28,6 +29,7 @@ CREATE TABLE IF NOT EXISTS keyframes (
   serialized_bytes INTEGER NOT NULL,
   pose_tx REAL, pose_ty REAL, pose_tz REAL,
   pose_qx REAL, pose_qy REAL, pose_qz REAL, pose_qw REAL,
+  text_regions BLOB,
   PRIMARY KEY (robot_id, sequence_number)
 );
 CREATE TABLE IF NOT EXISTS rejected (
@@ -77,6 +79,8 @@ std::optional<Pose> pose_at(const SqliteStatement& row, int first) {
 
 KeyframeStore::KeyframeStore(const std::string& path) : db_(path) {
   db_.exec(kSchema);
+  // Databases written before keyframes carried text regions: their keyframes have none.
+  db_.add_column_if_missing("keyframes", "text_regions", "BLOB");
   db_.exec("PRAGMA synchronous=FULL");  // an acknowledged keyframe survives a power cut
 }
 
@@ -86,8 +90,8 @@ StoreOutcome KeyframeStore::store(const Keyframe& k, std::uint64_t serialized_by
       "INSERT OR IGNORE INTO keyframes(robot_id, sequence_number, frame_index, capture_time_ns, "
       "received_ns, vslam_keyframe_index, window_first_frame, window_last_frame, quality_score, "
       "sharpness_score, semantic_score, encoding, width, height, image, image_fnv1a64, "
-      "serialized_bytes, pose_tx, pose_ty, pose_tz, pose_qx, pose_qy, pose_qz, pose_qw) "
-      "VALUES(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
+      "serialized_bytes, pose_tx, pose_ty, pose_tz, pose_qx, pose_qy, pose_qz, pose_qw, "
+      "text_regions) VALUES(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
   insert.bind(1, k.robot_id)
       .bind(2, as_int(k.sequence_number))
       .bind(3, as_int(k.frame_index))
@@ -112,6 +116,10 @@ StoreOutcome KeyframeStore::store(const Keyframe& k, std::uint64_t serialized_by
   } else {
     for (int i = 0; i < 7; ++i) insert.bind_null(18 + i);
   }
+  if (k.text_regions.empty())
+    insert.bind_null(25);
+  else
+    insert.bind(25, text_regions_blob(k.text_regions));
   insert.step();
   return db_.changes() > 0 ? StoreOutcome::kStored : StoreOutcome::kDuplicate;
 }
@@ -258,8 +266,8 @@ std::optional<Keyframe> KeyframeStore::load(const std::string& robot_id,
   auto query = db_.prepare(
       "SELECT frame_index, capture_time_ns, vslam_keyframe_index, window_first_frame, "
       "window_last_frame, quality_score, sharpness_score, semantic_score, encoding, width, "
-      "height, image, pose_tx, pose_ty, pose_tz, pose_qx, pose_qy, pose_qz, pose_qw "
-      "FROM keyframes WHERE robot_id = ? AND sequence_number = ?");
+      "height, image, pose_tx, pose_ty, pose_tz, pose_qx, pose_qy, pose_qz, pose_qw, "
+      "text_regions FROM keyframes WHERE robot_id = ? AND sequence_number = ?");
   query.bind(1, robot_id).bind(2, as_int(sequence));
   if (!query.step()) return std::nullopt;
   Keyframe k;
@@ -278,6 +286,7 @@ std::optional<Keyframe> KeyframeStore::load(const std::string& robot_id,
   k.height = static_cast<std::uint32_t>(query.int64(10));
   k.image = query.blob(11);
   k.camera_pose = pose_at(query, 12);
+  if (!query.is_null(19)) k.text_regions = text_regions_from_blob(query.blob(19));
   return k;
 }
 

@@ -1,5 +1,6 @@
 #include "keyfleet/station/keyframe_validator.hpp"
 
+#include <algorithm>
 #include <cstdio>
 
 namespace keyfleet::station {
@@ -10,6 +11,40 @@ std::string size_text(std::uint32_t w, std::uint32_t h) {
 }
 
 }  // namespace
+
+std::string TextRegionReview::summary() const {
+  std::string out;
+  const auto add = [&](std::size_t n, const char* what) {
+    if (n == 0) return;
+    if (!out.empty()) out += ", ";
+    out += std::to_string(n) + " " + what;
+  };
+  add(dropped, "dropped (empty or outside the image)");
+  add(clamped, "clamped to the image");
+  add(over_limit, "beyond max_text_regions");
+  return out;
+}
+
+TextRegionReview review_text_regions(const std::vector<TextRegion>& regions, std::uint32_t width,
+                                     std::uint32_t height, std::size_t max_regions) {
+  TextRegionReview review;
+  for (const TextRegion& r : regions) {
+    if (r.w == 0 || r.h == 0 || r.x >= width || r.y >= height) {
+      ++review.dropped;
+      continue;
+    }
+    if (review.regions.size() >= max_regions) {
+      ++review.over_limit;
+      continue;
+    }
+    TextRegion fit = r;
+    fit.w = std::uint16_t(std::min<std::uint32_t>(r.w, width - r.x));
+    fit.h = std::uint16_t(std::min<std::uint32_t>(r.h, height - r.y));
+    if (!(fit == r)) ++review.clamped;
+    review.regions.push_back(fit);
+  }
+  return review;
+}
 
 std::string printable_text(const std::string& raw, std::size_t max_bytes) {
   std::string out;

@@ -59,6 +59,7 @@ void KeyframeAgent::publish_selection(const Selection& selection, std::int64_t n
   keyframe.quality_score = selection.quality_score;
   keyframe.sharpness_score = selection.sharpness_score;
   keyframe.semantic_score = selection.semantic_score;
+  keyframe.text_regions = selection.text_regions;
 
   auto scope = clock_.measure("publish");
   outbox_.add(keyframe, now_ns);  // durable before it is on the wire

@@ -1,6 +1,7 @@
 #include "keyfleet/agent/keyframe_selector.hpp"
 
 #include "keyfleet/agent/semantic_score.hpp"
+#include "keyfleet/agent/text_regions.hpp"
 #include "keyfleet/vision/model_files.hpp"
 
 #include <opencv2/imgproc.hpp>
@@ -163,7 +164,13 @@ Selection HierarchicalSelector::resolve(const Window& window) {
     // Strictly better text wins; the batch is in quality order, so ties keep quality.
     if (semantic > best_semantic) best_semantic = semantic, best = i;
   }
-  return choose(*batch[best], quality(batch[best]), best_semantic);
+  Selection chosen = choose(*batch[best], quality(batch[best]), best_semantic);
+  {
+    auto scope = clock_->measure("text_regions");
+    chosen.text_regions =
+        text_regions(masks[best], batch[best]->frame.image.size(), config_.text_regions);
+  }
+  return chosen;
 }
 
 std::unique_ptr<KeyframeSelector> make_selector(const SelectorConfig& config, double fps,

@@ -3,6 +3,7 @@
 #include <cstring>
 
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/common/text_region_blob.hpp"
 
 namespace keyfleet::agent {
 namespace {
@@ -26,7 +27,8 @@ CREATE TABLE IF NOT EXISTS pending (
   width INTEGER NOT NULL,
   height INTEGER NOT NULL,
   image BLOB NOT NULL,
-  pose BLOB
+  pose BLOB,
+  text_regions BLOB
 );)sql";
 
 std::vector<std::uint8_t> pose_blob(const Pose& p) {
@@ -50,6 +52,7 @@ std::int64_t as_int(std::uint64_t v) { return static_cast<std::int64_t>(v); }
 Outbox::Outbox(const std::string& path, const std::string& robot_id, const OutboxConfig& bounds)
     : db_(path), bounds_(bounds), robot_id_(robot_id) {
   db_.exec(kSchema);
+  db_.add_column_if_missing("pending", "text_regions", "BLOB");  // outboxes before the hints
   // FULL, not NORMAL: with NORMAL a power cut can roll back the last transactions, and with them
   // sequence numbers the station already holds; new keyframes would then reuse them.
   db_.exec("PRAGMA synchronous=FULL");
@@ -74,8 +77,8 @@ void Outbox::add(const Keyframe& k, std::int64_t now_ns) {
     auto insert = db_.prepare(
         "INSERT INTO pending(sequence_number, created_ns, frame_index, capture_time_ns, "
         "vslam_keyframe_index, window_first_frame, window_last_frame, quality_score, "
-        "sharpness_score, semantic_score, encoding, width, height, image, pose) "
-        "VALUES(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
+        "sharpness_score, semantic_score, encoding, width, height, image, pose, text_regions) "
+        "VALUES(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
     insert.bind(1, as_int(k.sequence_number))
         .bind(2, now_ns)
         .bind(3, as_int(k.frame_index))
@@ -94,6 +97,10 @@ void Outbox::add(const Keyframe& k, std::int64_t now_ns) {
       insert.bind(15, pose_blob(*k.camera_pose));
     else
       insert.bind_null(15);
+    if (k.text_regions.empty())
+      insert.bind_null(16);
+    else
+      insert.bind(16, text_regions_blob(k.text_regions));
     insert.step();
     db_.prepare("INSERT OR REPLACE INTO meta(key, value) VALUES('next_sequence', ?)")
         .bind(1, std::to_string(k.sequence_number + 1))
@@ -123,7 +130,7 @@ std::vector<Keyframe> Outbox::due_for_resend(std::int64_t now_ns, std::size_t ma
   auto query = db_.prepare(
       "SELECT sequence_number, frame_index, capture_time_ns, vslam_keyframe_index, "
       "window_first_frame, window_last_frame, quality_score, sharpness_score, semantic_score, "
-      "encoding, width, height, image, pose FROM pending "
+      "encoding, width, height, image, pose, text_regions FROM pending "
       "WHERE last_sent_ns IS NULL OR last_sent_ns <= ? ORDER BY sequence_number LIMIT ?");
   query.bind(1, threshold).bind(2, static_cast<std::int64_t>(max));
   std::vector<Keyframe> due;
@@ -144,6 +151,7 @@ std::vector<Keyframe> Outbox::due_for_resend(std::int64_t now_ns, std::size_t ma
     k.height = static_cast<std::uint32_t>(query.int64(11));
     k.image = query.blob(12);
     if (!query.is_null(13)) k.camera_pose = pose_from_blob(query.blob(13));
+    if (!query.is_null(14)) k.text_regions = text_regions_from_blob(query.blob(14));
     due.push_back(std::move(k));
   }
   return due;

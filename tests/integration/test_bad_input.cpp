@@ -2,9 +2,12 @@
 #include <csignal>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include "keyfleet/common/image_codec.hpp"
+#include "keyfleet/common/sqlite.hpp"
+#include "keyfleet/common/text_region_blob.hpp"
 #include "keyfleet/dds/dds_transport.hpp"
 #include "support/fleet_fixture.hpp"
 
@@ -168,6 +171,48 @@ TEST_F(BadInput, StationRejectsHostileSamplesAndKeepsServingOthers) {
   station->signal(SIGTERM);
   const auto station_status = station->wait_for(seconds(30));
   ASSERT_TRUE(station_status && station_status->ok());
+}
+
+// Text regions that lie, over real DDS: the keyframe is still stored and acknowledged, with its
+// regions fixed (cut at the image's edge, outside or empty ones dropped, capped in number).
+TEST_F(BadInput, KeyframeWithLyingTextRegionsIsStoredWithThemFixed) {
+  auto station = start_station(station_config());
+  auto link = make_dds_agent_link(dds(), null_logger());
+  ASSERT_TRUE(wait_until([&] { return link->matched_stations() > 0; }, seconds(20)));
+
+  JpegCodec codec(80);
+  Keyframe k;
+  k.robot_id = "hinter";
+  k.width = 64;
+  k.height = 48;
+  k.image = codec.encode(cv::Mat(48, 64, CV_8UC3, cv::Scalar(40, 120, 200)));
+  k.text_regions = {{10, 10, 20, 8}, {60, 40, 60000, 60000}, {65535, 0, 5, 5}, {0, 0, 0, 0}};
+  k.text_regions.resize(5000, TextRegion{1, 1, 2, 2});
+  std::optional<KeyframeAck> ack;
+  ASSERT_TRUE(wait_until(
+      [&] {
+        if (!ack) link->publish(k);
+        // The first ack: a copy published again before it arrived is acked as a duplicate.
+        for (auto& a : link->take_acks("hinter", milliseconds(300)))
+          if (!ack) ack = a;
+        return ack.has_value();
+      },
+      seconds(20)));
+  EXPECT_EQ(ack->status, AckStatus::kStored) << ack->reason;
+
+  std::vector<TextRegion> expected = {{10, 10, 20, 8}, {60, 40, 4, 8}};
+  expected.resize(64, TextRegion{1, 1, 2, 2});  // limits.max_text_regions
+  {
+    SqliteDb db((station_dir() / "station.sqlite").string(), SqliteDb::Mode::kReadOnly);
+    auto q = db.prepare("SELECT text_regions FROM keyframes WHERE robot_id='hinter'");
+    ASSERT_TRUE(q.step());
+    EXPECT_TRUE(text_regions_from_blob(q.blob(0)) == expected);
+  }
+  station->signal(SIGTERM);
+  const auto station_status = station->wait_for(seconds(30));
+  ASSERT_TRUE(station_status && station_status->ok());
+  const std::string log = read_file(station_dir() / "station.log");
+  EXPECT_NE(log.find("text regions 2 dropped"), std::string::npos) << log;
 }
 
 }  // namespace

@@ -264,6 +264,8 @@ TEST(HierarchicalSelector, FullPicksTheFrameWhoseTextIsCentred) {
   const Selection& s = run.emitted[1].selection;
   EXPECT_EQ(s.frame.index, centred_text) << describe(run.emitted);
   EXPECT_DOUBLE_EQ(s.semantic_score, 128.0);  // 128 text pixels, none in the border band
+  // Its mask's one component, from the 64 x 32 mask to the 320 x 240 frame, goes as a hint.
+  EXPECT_EQ(s.text_regions, (std::vector<TextRegion>{{120, 90, 80, 60}}));
 
   // The segmenter ran once per window, on the top third (by quality) of the frames that
   // pass the sharpness gate, as one batch.

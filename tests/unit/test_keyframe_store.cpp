@@ -60,6 +60,21 @@ class KeyframeStoreTest : public ::testing::Test {
   std::string path_ = dir_.file("station.sqlite");
 };
 
+// A keyframe without ORB keypoints (a blank image) has empty feature blobs: they must be stored
+// as empty blobs, not NULL (a NOT NULL column refused the analysis, and the station retried it
+// in a loop).
+TEST(SqliteBlob, AnEmptyBlobIsStoredAsAnEmptyBlobNotNull) {
+  test::TempDir dir;
+  SqliteDb db(dir.file("blob.sqlite"));
+  db.exec("CREATE TABLE t (b BLOB NOT NULL)");
+  db.prepare("INSERT INTO t (b) VALUES (?)").bind(1, std::vector<std::uint8_t>{}).step();
+  auto q = db.prepare("SELECT b IS NULL, length(b), b FROM t");
+  ASSERT_TRUE(q.step());
+  EXPECT_EQ(q.int64(0), 0);
+  EXPECT_EQ(q.int64(1), 0);
+  EXPECT_TRUE(q.blob(2).empty());
+}
+
 TEST_F(KeyframeStoreTest, NewStoreIsEmpty) {
   const KeyframeStore store(path_);
   EXPECT_EQ(store.keyframe_count(), 0u);

@@ -82,10 +82,25 @@ float quad_area(const TextQuad& quad) {
   return float(std::abs(cv::contourArea(std::vector<cv::Point2f>(quad.begin(), quad.end()))));
 }
 
+// The detector of the mosaics of hinted regions (ppocr_region_hints.cpp); null for "off".
+std::unique_ptr<PpocrDetector> make_hint_detector(const TextReadingConfig& params) {
+  if (params.region_hints == "off") return nullptr;
+  if (params.region_hints != "only" && params.region_hints != "first")
+    throw StartupError("text reader: region_hints '" + params.region_hints +
+                       "' is not off, only or first");
+  const std::string file = "ppocr_det_" + params.region_hint_detector_size + ".onnx";
+  return std::make_unique<PpocrDetector>(locate(params, file, "ppocr region-hint detector"),
+                                         detector_size(params.region_hint_detector_size),
+                                         db_params(params));
+}
+
 }  // namespace
 
 PpocrReader::PpocrReader(const TextReadingConfig& params)
-    : params_(params), detectors_(make_detectors(params)), recognizer_(make_recognizer(params)) {
+    : params_(params),
+      detectors_(make_detectors(params)),
+      recognizer_(make_recognizer(params)),
+      hint_detector_(make_hint_detector(params)) {
   // Process-wide, as for mininet+tesseract's segmenter: the station's CPU budget for OpenCV DNN.
   if (params.threads > 0) cv::setNumThreads(params.threads);
 }
@@ -107,16 +122,20 @@ std::vector<ReadWord> PpocrReader::read(const cv::Mat& bgr) {
     const float w = float(image.cols), h = float(image.rows);
     lines.push_back({cv::Point2f(0, 0), cv::Point2f(w, 0), cv::Point2f(w, h), cv::Point2f(0, h)});
   } else {
-    std::vector<DetectedText> found = detector_for(image.size()).detect(image);
-    if (int(found.size()) > params_.max_regions) {
-      std::stable_sort(found.begin(), found.end(), [](const auto& a, const auto& b) {
-        return quad_area(a.quad) > quad_area(b.quad);
-      });
-      found.resize(std::size_t(params_.max_regions));
-    }
-    for (const auto& text : found) lines.push_back(text.quad);
+    for (const auto& text : detector_for(image.size()).detect(image)) lines.push_back(text.quad);
+  }
+  return read_lines(image, std::move(lines));
+}
+
+std::vector<ReadWord> PpocrReader::read_lines(const cv::Mat& image, std::vector<TextQuad> lines) {
+  if (int(lines.size()) > params_.max_regions) {
+    std::stable_sort(lines.begin(), lines.end(), [](const TextQuad& a, const TextQuad& b) {
+      return quad_area(a) > quad_area(b);
+    });
+    lines.resize(std::size_t(params_.max_regions));
   }
   const cv::Rect frame(0, 0, image.cols, image.rows);
+  const bool crop = std::max(image.cols, image.rows) < kMaxCropLongSide;
   const int margin = crop ? -1 : params_.cut_word_margin;
   std::vector<ReadWord> words;
   for (const auto& quad : lines) {

@@ -2,6 +2,7 @@
 // The engines behind make_text_reader.
 #include <map>
 #include <memory>
+#include <optional>
 #include <utility>
 
 #include "keyfleet/station/text/lexicon.hpp"
@@ -59,14 +60,21 @@ class PpocrReader final : public TextReader {
   explicit PpocrReader(const TextReadingConfig& params);
   std::vector<ReadWord> read(const cv::Mat& bgr) override;
   std::string name() const override { return "ppocr"; }
+  // As `region_hints` says (config.hpp; ppocr_region_hints.cpp).
+  std::vector<ReadWord> read_with_hints(const cv::Mat& bgr,
+                                        const std::vector<cv::Rect>& hints) override;
 
  private:
   // The smallest detector that holds `image` unscaled, else the largest.
   PpocrDetector& detector_for(cv::Size image);
+  // Recognises each line (the largest `max_regions`) and keeps the words keep_word() accepts:
+  // the half of read() that read_with_hints() shares.
+  std::vector<ReadWord> read_lines(const cv::Mat& image, std::vector<TextQuad> lines);
 
   TextReadingConfig params_;
   std::vector<PpocrDetector> detectors_;  // by input area, smallest first
   PpocrRecognizer recognizer_;
+  std::unique_ptr<PpocrDetector> hint_detector_;  // region_hints other than "off"
 };
 
 // Any engine's words checked against a word list (apply_lexicon): corrected, or dropped.
@@ -74,11 +82,39 @@ class LexiconReader final : public TextReader {
  public:
   LexiconReader(std::unique_ptr<TextReader> engine, const std::string& lexicon_path);
   std::vector<ReadWord> read(const cv::Mat& bgr) override;
+  std::vector<ReadWord> read_with_hints(const cv::Mat& bgr,
+                                        const std::vector<cv::Rect>& hints) override;
   std::string name() const override { return engine_->name() + "+lexicon"; }
 
  private:
+  std::vector<ReadWord> listed(std::vector<ReadWord> read) const;  // corrected or dropped
+
   std::unique_ptr<TextReader> engine_;
   Lexicon lexicon_;
 };
+
+namespace ppocr {
+
+// Where a hinted region of the image lies in a mosaic.
+struct MosaicPlacement {
+  cv::Rect source;  // in the image
+  cv::Point at;     // its top-left corner in the mosaic
+};
+
+// The hinted regions of an image padded by `padding` x their height a side (at least 4 px),
+// clipped to the image, overlapping ones united, packed in rows (tallest first, `gap` px apart)
+// into as many mosaics of `mosaic` size as they need. Empty when a padded region does not fit
+// in one mosaic, or when more than `max_mosaics` would be needed.
+std::vector<std::vector<MosaicPlacement>> pack_hints(const std::vector<cv::Rect>& hints,
+                                                     cv::Size image_size, double padding,
+                                                     cv::Size mosaic, int gap,
+                                                     std::size_t max_mosaics);
+
+// A line found in a mosaic, moved back into the image; nullopt when its centre lies in no
+// placed region (the gaps between them).
+std::optional<TextQuad> quad_in_image(const TextQuad& in_mosaic,
+                                      const std::vector<MosaicPlacement>& placements);
+
+}  // namespace ppocr
 
 }  // namespace keyfleet::station

@@ -28,9 +28,16 @@ const std::vector<Engine>& engines() {
 LexiconReader::LexiconReader(std::unique_ptr<TextReader> engine, const std::string& lexicon_path)
     : engine_(std::move(engine)), lexicon_(lexicon_path) {}
 
-std::vector<ReadWord> LexiconReader::read(const cv::Mat& bgr) {
+std::vector<ReadWord> LexiconReader::read(const cv::Mat& bgr) { return listed(engine_->read(bgr)); }
+
+std::vector<ReadWord> LexiconReader::read_with_hints(const cv::Mat& bgr,
+                                                     const std::vector<cv::Rect>& hints) {
+  return listed(engine_->read_with_hints(bgr, hints));
+}
+
+std::vector<ReadWord> LexiconReader::listed(std::vector<ReadWord> read) const {
   std::vector<ReadWord> words;
-  for (auto& word : engine_->read(bgr)) {
+  for (auto& word : read) {
     auto listed = apply_lexicon(lexicon_, word.text);
     if (!listed) continue;
     word.text = std::move(*listed);

@@ -84,6 +84,17 @@ struct SemanticConfig {
   int threads = 1;      // OpenCV DNN threads
 };
 
+// Text regions sent with each keyframe as hints for the station's reader: the connected
+// components of the segmenter's mask of the sent frame, in the frame's pixels. Only the semantic
+// strategies run the segmenter on the frame they choose; with the others no regions are sent.
+struct TextRegionsConfig {
+  bool enabled = true;
+  int max_regions = 32;           // largest kept; 8 bytes each on the wire (32: 260 bytes a sample)
+  int min_area_px = 64;           // smaller components (frame pixels) are dropped as noise
+  double merge_gap = 1.0;         // boxes on one line closer than this x their height are merged
+  double min_line_overlap = 0.5;  // "on one line": vertical overlap / the smaller height
+};
+
 struct SelectorConfig {
   enum class Strategy {
     kVslam,     // publish the V-SLAM keyframe itself
@@ -97,6 +108,7 @@ struct SelectorConfig {
   TriggerConfig trigger;
   QualityConfig quality;
   SemanticConfig semantic;
+  TextRegionsConfig text_regions;
 };
 
 struct CodecConfig {
@@ -138,6 +150,8 @@ struct StationLimits {
   std::uint64_t max_image_bytes = 8ULL << 20;  // larger samples are rejected
   std::uint32_t max_width = 8192;              // claimed or decoded dimensions above these
   std::uint32_t max_height = 8192;             //   are rejected before decoding
+  // A keyframe's text regions beyond this many are ignored (the image is still stored).
+  int max_text_regions = 64;
 };
 
 // Reading the words in received keyframes: the station's TextReader, and every tool that
@@ -177,6 +191,15 @@ struct TextReadingConfig {
   // cut by the frame reads as a fragment ("SEUM", "FLOWE"), and a later keyframe shows it whole. -1
   // = keep them. Word crops (images smaller than a keyframe) are never cut.
   int cut_word_margin = 2;
+  // The robot's text regions (Keyframe::text_regions), used by ppocr: "off" = the detector on
+  // the whole image; "only" = the detector on a mosaic of the hinted regions, each padded by
+  // `region_hint_padding` x its height a side, packed at the scale the whole image would get,
+  // run through the `region_hint_detector_size` detector (several mosaics while cheaper than
+  // the whole image, else the whole image); "first" = as "only", and the whole image as well
+  // when the hinted regions give no word. A keyframe without hints is read whole in any mode.
+  std::string region_hints = "off";
+  std::string region_hint_detector_size = "640x480";  // WxH as ppocr_detector_size
+  double region_hint_padding = 0.5;
   // ppocr: PP-OCRv4 (PaddleOCR's DB detector and SVTR recogniser) in OpenCV DNN, from the
   // files scripts/fetch_ppocr.sh converts into <bin>/../share/keyfleet/models/ppocr/. Reads at
   // most `max_regions` detected lines per image (the largest).

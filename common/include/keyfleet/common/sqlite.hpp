@@ -57,6 +57,10 @@ class SqliteDb {
   SqliteStatement prepare(const std::string& sql);
   std::int64_t changes() const;
   const std::string& path() const { return path_; }
+  // Schema migration for a database written by an older build: adds `column` (with its SQL
+  // declaration, e.g. "BLOB") to `table` unless the table has it already.
+  void add_column_if_missing(const std::string& table, const std::string& column,
+                             const std::string& declaration);
 
  private:
   sqlite3* db_ = nullptr;

@@ -12,6 +12,15 @@ struct Pose {
   double qx = 0, qy = 0, qz = 0, qw = 1;
 };
 
+// A region where the robot's text segmenter saw text, in the sent image's pixels: a hint for
+// the station's reader, which checks it (a hint may lie) and may ignore it.
+struct TextRegion {
+  std::uint16_t x = 0, y = 0, w = 0, h = 0;
+  bool operator==(const TextRegion& o) const {
+    return x == o.x && y == o.y && w == o.w && h == o.h;
+  }
+};
+
 struct Keyframe {
   std::string robot_id;
   std::uint64_t sequence_number = 0;
@@ -28,6 +37,7 @@ struct Keyframe {
   std::uint32_t height = 0;
   std::vector<std::uint8_t> image;
   std::optional<Pose> camera_pose;
+  std::vector<TextRegion> text_regions;  // largest first; empty when the robot has none
 };
 
 struct StageTime {

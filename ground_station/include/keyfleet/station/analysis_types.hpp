@@ -31,6 +31,7 @@ struct AnalysisJob {
   std::int64_t capture_time_ns = 0;
   std::optional<Pose> pose;
   std::vector<std::uint8_t> jpeg;
+  std::vector<TextRegion> text_regions;  // the robot's hints, as the station checked them
 };
 
 AnalysisJob job_for(const Keyframe& keyframe);

@@ -34,6 +34,8 @@ class GroundStation {
 
  private:
   void note_robot(const std::string& robot_id);
+  KeyframeAck store_checked(const Keyframe& keyframe, std::uint64_t serialized_bytes,
+                            std::int64_t now_ns);
 
   StationLimits limits_;
   KeyframeStore& store_;
@@ -42,6 +44,7 @@ class GroundStation {
   Logger logger_;
   JpegCodec codec_{90};
   std::set<std::string> robots_;
+  std::set<std::string> warned_text_regions_;  // robots whose bad text regions were logged
   std::function<void(const Keyframe&)> on_stored_;
 };
 

@@ -23,6 +23,8 @@ struct Selection {
   double quality_score = 0;
   double sharpness_score = 0;
   double semantic_score = 0;
+  // Where the segmenter saw text in the chosen frame (semantic strategies; text_regions.hpp).
+  std::vector<TextRegion> text_regions;
 };
 
 struct SelectorStep {

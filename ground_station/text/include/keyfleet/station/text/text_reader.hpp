@@ -29,6 +29,13 @@ class TextReader {
   virtual ~TextReader() = default;
   // Never throws on a bad image (empty, tiny, wrong type): returns no words.
   virtual std::vector<ReadWord> read(const cv::Mat& bgr) = 0;
+  // The same with the robot's text regions (in `bgr`'s pixels, checked to lie inside it) as
+  // hints; engines that cannot use them read the whole image.
+  virtual std::vector<ReadWord> read_with_hints(const cv::Mat& bgr,
+                                                const std::vector<cv::Rect>& hints) {
+    (void)hints;
+    return read(bgr);
+  }
   virtual std::string name() const = 0;
 };
 
