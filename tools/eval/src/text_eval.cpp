@@ -70,6 +70,18 @@ Overlap overlap_of(const Quad& a, const Quad& b) {
   return o;
 }
 
+// The next non-empty line of an ICDAR ground-truth file, without its byte-order mark (first
+// line) and line ending; `line_number` counts every line read.
+bool next_gt_line(std::istream& in, std::string& line, int& line_number) {
+  while (std::getline(in, line)) {
+    ++line_number;
+    if (line_number == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
+    while (!line.empty() && (line.back() == '\r' || line.back() == '\n')) line.pop_back();
+    if (!line.empty()) return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 EndToEndCounts& EndToEndCounts::operator+=(const EndToEndCounts& other) {
@@ -157,11 +169,7 @@ std::vector<GtWord> read_icdar_gt(const std::string& path) {
   std::vector<GtWord> words;
   std::string line;
   int line_number = 0;
-  while (std::getline(in, line)) {
-    ++line_number;
-    if (line_number == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
-    while (!line.empty() && (line.back() == '\r' || line.back() == '\n')) line.pop_back();
-    if (line.empty()) continue;
+  while (next_gt_line(in, line, line_number)) {
     GtWord word;
     std::size_t pos = 0;
     for (int i = 0; i < 8; ++i) {
@@ -213,11 +221,7 @@ std::vector<CroppedWord> read_icdar_word_gt(const std::string& gt_txt) {
   std::vector<CroppedWord> words;
   std::string line;
   int line_number = 0;
-  while (std::getline(in, line)) {
-    ++line_number;
-    if (line_number == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
-    while (!line.empty() && (line.back() == '\r' || line.back() == '\n')) line.pop_back();
-    if (line.empty()) continue;
+  while (next_gt_line(in, line, line_number)) {
     const std::size_t comma = line.find(", \"");
     if (comma == std::string::npos || line.size() < comma + 4 || line.back() != '"')
       throw StartupError(gt_txt + ":" + std::to_string(line_number) +
