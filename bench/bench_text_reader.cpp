@@ -31,6 +31,7 @@
 #include <string>
 #include <vector>
 
+#include "keyfleet/common/process_tuning.hpp"
 #include "keyfleet/station/text/text_reader.hpp"
 #include "keyfleet/vision/model_files.hpp"
 #include "ppocr_detector.hpp"
@@ -317,4 +318,12 @@ BENCHMARK(BM_PpocrRecognizerOverhead)
     ->Apply(timed)
     ->Iterations(50);
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  // As the station: Tesseract's OpenMP threads bounded to one (OMP_THREAD_LIMIT, re-executes).
+  keyfleet::limit_openmp_to_one_thread(argv);
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
