@@ -1,13 +1,16 @@
 // The station's analysis cost on generated street keyframes (640x480 JPEG): place
 // recognition (ORB + bag of words + verification), text reading, both; and the keyframes per
-// second the analysis pool sustains with 1 and 2 workers. Prints figures; never pass/fail.
+// second the analysis pool sustains with 1 and 2 workers; at the station's defaults (text read
+// by ppocr), and with tesseract for comparison. Prints figures; never pass/fail.
 //   build/bin/bench_station [--benchmark_repetitions=3 --benchmark_report_aggregates_only=true]
 #include <benchmark/benchmark.h>
 
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
+#include <exception>
 #include <filesystem>
+#include <memory>
 
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/image_codec.hpp"
@@ -58,22 +61,32 @@ const Keyframes& keyframes() {
   return k;
 }
 
-AnalysisConfig config_with(bool text, bool places, int text_long_side = 1280) {
+// The station's defaults (configs/station.yaml: text engine ppocr, detector size auto, one
+// OpenCV thread, places on) with text and places on or off and the text engine chosen.
+constexpr const char* kEngines[] = {"ppocr", "tesseract"};
+
+AnalysisConfig config_with(bool text, bool places, std::int64_t engine) {
   AnalysisConfig config;
   config.text.enabled = text;
-  config.text.min_long_side = text_long_side;
+  config.text.engine = kEngines[engine];
   config.places.enabled = places;
   return config;
 }
 
-// Per keyframe, one thread: arg 0 = places, 1 = text, 2 = both; text read at 1280 px or
-// at the keyframe's own size (0).
+// Per keyframe, one thread: arg 0 = places, 1 = text, 2 = both; arg 1 = text engine (0 ppocr,
+// the default; 1 tesseract).
 void BM_AnalyseKeyframe(benchmark::State& state) {
   const AnalysisConfig config =
-      config_with(state.range(0) >= 1, state.range(0) != 1, static_cast<int>(state.range(1)));
+      config_with(state.range(0) >= 1, state.range(0) != 1, state.range(1));
   auto places = make_configured_place_recognizer(config.places);
-  KeyframeAnalyzer analyzer(make_configured_text_reader(config.text), places.get(), config,
-                            null_logger());
+  std::unique_ptr<TextReader> reader;
+  try {
+    reader = make_configured_text_reader(config.text);
+  } catch (const std::exception& e) {
+    state.SkipWithError(e.what());
+    return;
+  }
+  KeyframeAnalyzer analyzer(std::move(reader), places.get(), config, null_logger());
   const auto& jobs = keyframes().jobs;
   std::size_t i = 0, words = 0;
   for (auto _ : state) {
@@ -84,18 +97,26 @@ void BM_AnalyseKeyframe(benchmark::State& state) {
       benchmark::Counter(double(words) / double(state.iterations()));
 }
 BENCHMARK(BM_AnalyseKeyframe)
-    ->ArgNames({"places0_text1_both2", "text_long_side"})
+    ->ArgNames({"places0_text1_both2", "ppocr0_tesseract1"})
     ->Args({0, 0})
-    ->Args({1, 1280})
     ->Args({1, 0})
+    ->Args({1, 1})
+    ->Args({2, 0})
     ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
     ->Iterations(40);
 
-// The whole flight through the pool with everything on: keyframes per second sustained,
-// with keyframes read at 1280 px (the default) or at their own 640 px.
+// The whole flight through the pool with everything on (the station's defaults): keyframes per
+// second sustained with 1 (the default) and 2 workers, reading with ppocr or tesseract.
 void BM_StationThroughput(benchmark::State& state) {
-  const AnalysisConfig config = config_with(true, true, static_cast<int>(state.range(1)));
+  const AnalysisConfig config = config_with(true, true, state.range(1));
   const auto& jobs = keyframes().jobs;
+  try {
+    make_configured_text_reader(config.text);
+  } catch (const std::exception& e) {
+    state.SkipWithError(e.what());
+    return;
+  }
   for (auto _ : state) {
     auto places = make_configured_place_recognizer(config.places);
     std::vector<AnalysisPool::Step> steps;
@@ -111,11 +132,11 @@ void BM_StationThroughput(benchmark::State& state) {
   state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * jobs.size()));
 }
 BENCHMARK(BM_StationThroughput)
-    ->ArgNames({"workers", "text_long_side"})
-    ->Args({1, 1280})
-    ->Args({2, 1280})
+    ->ArgNames({"workers", "ppocr0_tesseract1"})
     ->Args({1, 0})
     ->Args({2, 0})
+    ->Args({1, 1})
+    ->Args({2, 1})
     ->Unit(benchmark::kSecond)
     ->UseRealTime()
     ->Iterations(1);

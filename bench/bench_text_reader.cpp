@@ -1,36 +1,91 @@
-// Milliseconds per 640x480 keyframe for each text-reading engine: an ICDAR 2015 photo
-// resized to keyframe size when the shared data is there, else a generated sign.
+// What reading text costs, in milliseconds (real time; medians of the repetitions):
+//  - read_keyframe: a whole read of a 640x480 keyframe by each engine (an ICDAR 2015 photo
+//    resized to keyframe size when the shared data is there, else a generated sign);
+//  - the PP-OCR parts at 1 and 2 OpenCV threads: the detector (whole detect(), its network pass
+//    alone, its DB post-processing alone) at each fetched input size on a real photo at its
+//    native 1280x720 and resized to 640x480; the recogniser per input width on a real word crop;
+//    the recogniser's work around its network (perspective cut, CTC decoding).
+// Cases whose models (scripts/fetch_ppocr.sh) or data (KEYFLEET_DATA) are missing are skipped
+// with the reason. Prints figures; never pass/fail.
+// The recogniser's crops of one keyframe are read one at a time: OpenCV 4.6 cannot batch them.
+// A [N,3,48,W] blob through a converted [1,3,48,W] file fails in its first Transpose (the
+// Reshape targets hold batch 1: "permute_layer.cpp:161 (int)_numAxes == inputs[0].size()"), and
+// a file converted for a fixed [N,3,48,W] fails in the first LayerNorm's Sub of [N,20,120] and
+// [N,20,1] ("shape_utils.hpp:170 ... in function 'total'"). Its time is about linear in the
+// width (BM_PpocrRecognize), so little is fixed per call that a batch could share anyway.
+//   KEYFLEET_DATA=../shared/data build/bin/bench_text_reader
 #include <benchmark/benchmark.h>
 
+#include <opencv2/core/utility.hpp>
+#include <opencv2/dnn.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cstdlib>
+#include <exception>
 #include <filesystem>
+#include <map>
+#include <memory>
+#include <optional>
 #include <string>
+#include <vector>
 
+#include "keyfleet/common/process_tuning.hpp"
 #include "keyfleet/station/text/text_reader.hpp"
+#include "keyfleet/vision/model_files.hpp"
+#include "ppocr_detector.hpp"
+#include "ppocr_recognizer.hpp"
 
 namespace {
 
-cv::Mat keyframe() {
+using keyfleet::station::PpocrDetector;
+using keyfleet::station::PpocrRecognizer;
+using keyfleet::station::TextQuad;
+
+std::filesystem::path data_dir() {
   const char* env = std::getenv("KEYFLEET_DATA");
-  const std::filesystem::path data = env ? env : "../shared/data";
-  cv::Mat photo = cv::imread((data / "icdar2015/train_sharp/images/img_8.jpg").string());
-  if (photo.empty()) {
-    photo = cv::Mat(480, 640, CV_8UC3, cv::Scalar(150, 160, 170));
-    cv::putText(photo, "GRAND HOTEL", {60, 250}, cv::FONT_HERSHEY_DUPLEX, 2.0,
+  return env ? env : "../shared/data";
+}
+
+// The ICDAR 2015 photo the cases read (1280x720), empty when the data is absent.
+cv::Mat photo() {
+  return cv::imread((data_dir() / "icdar2015/train_sharp/images/img_8.jpg").string());
+}
+
+cv::Mat keyframe() {
+  cv::Mat image = photo();
+  if (image.empty()) {
+    image = cv::Mat(480, 640, CV_8UC3, cv::Scalar(150, 160, 170));
+    cv::putText(image, "GRAND HOTEL", {60, 250}, cv::FONT_HERSHEY_DUPLEX, 2.0,
                 cv::Scalar(30, 20, 120), 4, cv::LINE_AA);
   }
   cv::Mat out;
-  cv::resize(photo, out, cv::Size(640, 480), 0, 0, cv::INTER_AREA);
+  cv::resize(image, out, cv::Size(640, 480), 0, 0, cv::INTER_AREA);
   return out;
+}
+
+// A converted ppocr file, found as the reader finds it; nullopt (and the reason) when absent.
+std::optional<std::string> ppocr_file(const std::string& file, std::string& why) {
+  try {
+    return keyfleet::vision::locate_model("ppocr/" + file, "ppocr model");
+  } catch (const std::exception& e) {
+    why = std::string(e.what()) + " (scripts/fetch_ppocr.sh converts the ppocr models)";
+    return std::nullopt;
+  }
 }
 
 void read_keyframe(benchmark::State& state, const std::string& engine) {
   keyfleet::TextReadingConfig params;
   params.engine = engine;
-  const auto reader = keyfleet::station::make_text_reader(params);
+  std::unique_ptr<keyfleet::station::TextReader> reader;
+  try {
+    reader = keyfleet::station::make_text_reader(params);
+  } catch (const std::exception& e) {
+    state.SkipWithError(e.what());
+    return;
+  }
+  cv::setNumThreads(1);  // the station's default (TextReadingConfig::threads)
   const cv::Mat image = keyframe();
   std::size_t words = 0;
   for (auto _ : state) {
@@ -41,19 +96,234 @@ void read_keyframe(benchmark::State& state, const std::string& engine) {
   state.counters["words"] = double(words);
 }
 
+// Detector cases: arg 0 = input size (0: 640x480, 1: 1280x736), arg 1 = the photo at its native
+// 1280x720 (0) or resized to 640x480 (1), arg 2 = OpenCV threads.
+constexpr const char* kDetectorSizes[] = {"640x480", "1280x736"};
+const cv::Size kDetectorInputs[] = {{640, 480}, {1280, 736}};
+
+struct DetectorCase {
+  std::unique_ptr<PpocrDetector> detector;
+  cv::Mat image;
+  std::string model;
+};
+
+std::optional<DetectorCase> detector_case(benchmark::State& state) {
+  const auto size = std::size_t(state.range(0));
+  std::string why;
+  const auto model = ppocr_file(std::string("ppocr_det_") + kDetectorSizes[size] + ".onnx", why);
+  if (!model) {
+    state.SkipWithError(why.c_str());
+    return std::nullopt;
+  }
+  DetectorCase c;
+  c.model = *model;
+  c.image = photo();
+  if (c.image.empty()) {
+    state.SkipWithError(
+        "no ICDAR 2015 photo (icdar2015/train_sharp/images/img_8.jpg under "
+        "KEYFLEET_DATA)");
+    return std::nullopt;
+  }
+  if (state.range(1) == 1) cv::resize(c.image, c.image, {640, 480}, 0, 0, cv::INTER_AREA);
+  c.detector = std::make_unique<PpocrDetector>(c.model, kDetectorInputs[size],
+                                               keyfleet::station::DbParams{});
+  cv::setNumThreads(int(state.range(2)));
+  return c;
+}
+
+// The detector's input as PpocrDetector::detect makes it (letterboxed, ImageNet-normalised),
+// and the valid part and scale of its map; for timing the network and the post-processing apart.
+cv::Mat detector_blob(const cv::Mat& bgr, cv::Size input, cv::Size& fitted, float& scale) {
+  scale = std::min(float(input.width) / float(bgr.cols), float(input.height) / float(bgr.rows));
+  fitted = {std::min(cvRound(float(bgr.cols) * scale), input.width),
+            std::min(cvRound(float(bgr.rows) * scale), input.height)};
+  cv::Mat resized, normalised;
+  cv::resize(bgr, resized, fitted, 0, 0, cv::INTER_LINEAR);
+  resized.convertTo(normalised, CV_32FC3, 1.0 / 255.0);
+  normalised -= cv::Scalar(0.485, 0.456, 0.406);
+  cv::divide(normalised, cv::Scalar(0.229, 0.224, 0.225), normalised);
+  cv::Mat padded(input, CV_32FC3, cv::Scalar::all(0));
+  normalised.copyTo(padded(cv::Rect(cv::Point(0, 0), fitted)));
+  return cv::dnn::blobFromImage(padded);
+}
+
+// The whole of detect(): letterbox, network, DB post-processing.
+void BM_PpocrDetect(benchmark::State& state) {
+  auto c = detector_case(state);
+  if (!c) return;
+  std::size_t lines = 0;
+  for (auto _ : state) {
+    lines = c->detector->detect(c->image).size();
+    benchmark::DoNotOptimize(lines);
+  }
+  state.counters["lines"] = double(lines);
+}
+
+// The detector's network pass alone.
+void BM_PpocrDetectorNet(benchmark::State& state) {
+  auto c = detector_case(state);
+  if (!c) return;
+  cv::dnn::Net net = cv::dnn::readNetFromONNX(c->model);
+  net.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);
+  net.setPreferableTarget(cv::dnn::DNN_TARGET_CPU);
+  cv::Size fitted;
+  float scale = 1;
+  const cv::Mat blob = detector_blob(c->image, c->detector->input_size(), fitted, scale);
+  net.setInput(blob);
+  net.forward();  // the first pass allocates
+  for (auto _ : state) {
+    net.setInput(blob);
+    cv::Mat out = net.forward();
+    benchmark::DoNotOptimize(out.data);
+  }
+}
+
+// DB post-processing of the photo's probability map alone (one thread: it is serial code).
+void BM_PpocrDbPostprocess(benchmark::State& state) {
+  auto c = detector_case(state);
+  if (!c) return;
+  cv::dnn::Net net = cv::dnn::readNetFromONNX(c->model);
+  cv::Size fitted;
+  float scale = 1;
+  const cv::Size input = c->detector->input_size();
+  net.setInput(detector_blob(c->image, input, fitted, scale));
+  const cv::Mat out = net.forward();
+  const cv::Mat prob = cv::Mat(input, CV_32F, const_cast<float*>(out.ptr<float>())).clone();
+  std::size_t lines = 0;
+  for (auto _ : state) {
+    lines =
+        keyfleet::station::ppocr::db_postprocess(prob, fitted, scale, c->image.size(), {}).size();
+    benchmark::DoNotOptimize(lines);
+  }
+  state.counters["lines"] = double(lines);
+}
+
+// A real word crop (train_words/word_7.png, 137x53, "fusionopolis") read by a recogniser
+// holding only the `width` network: every crop goes through that width (padded or squeezed).
+struct RecognizerCase {
+  std::unique_ptr<PpocrRecognizer> recognizer;
+  cv::Mat crop;
+  TextQuad quad;
+  std::string model;
+};
+
+std::optional<RecognizerCase> recognizer_case(benchmark::State& state, int width) {
+  std::string why;
+  const auto model = ppocr_file("ppocr_rec_w" + std::to_string(width) + ".onnx", why);
+  const auto keys = ppocr_file("ppocr_keys_v1.txt", why);
+  if (!model || !keys) {
+    state.SkipWithError(why.c_str());
+    return std::nullopt;
+  }
+  RecognizerCase c;
+  c.model = *model;
+  c.crop = cv::imread((data_dir() / "icdar2015/train_words/word_7.png").string());
+  if (c.crop.empty()) {
+    state.SkipWithError(
+        "no ICDAR 2015 word crop (icdar2015/train_words/word_7.png under "
+        "KEYFLEET_DATA)");
+    return std::nullopt;
+  }
+  const float w = float(c.crop.cols), h = float(c.crop.rows);
+  c.quad = {cv::Point2f(0, 0), cv::Point2f(w, 0), cv::Point2f(w, h), cv::Point2f(0, h)};
+  c.recognizer = std::make_unique<PpocrRecognizer>(std::map<int, std::string>{{width, *model}},
+                                                   *keys, keyfleet::station::RecognizerOptions{});
+  return c;
+}
+
+// arg 0 = the network's input width (160, 320, 640), arg 1 = OpenCV threads.
+void BM_PpocrRecognize(benchmark::State& state) {
+  auto c = recognizer_case(state, int(state.range(0)));
+  if (!c) return;
+  cv::setNumThreads(int(state.range(1)));
+  std::size_t words = 0;
+  std::string text;
+  for (auto _ : state) {
+    const auto line = c->recognizer->recognize(c->crop, c->quad);
+    words = line ? line->words.size() : 0;
+    if (words > 0) text = line->words.front().text;
+    benchmark::DoNotOptimize(words);
+  }
+  state.counters["words"] = double(words);
+  state.SetLabel(text);
+}
+
+// What recognize() does besides the network: the perspective cut and greedy CTC decoding of
+// the width-`arg 0` network's output for the crop.
+void BM_PpocrRecognizerOverhead(benchmark::State& state) {
+  const int width = int(state.range(0));
+  auto c = recognizer_case(state, width);
+  if (!c) return;
+  cv::setNumThreads(1);
+  cv::dnn::Net net = cv::dnn::readNetFromONNX(c->model);
+  const int shape[] = {1, 3, PpocrRecognizer::kHeight, width};
+  net.setInput(cv::Mat(4, shape, CV_32F, cv::Scalar(0.1)));
+  const cv::Mat out = net.forward();
+  const cv::Mat probs =
+      cv::Mat(out.size[1], out.size[2], CV_32F, const_cast<float*>(out.ptr<float>())).clone();
+  keyfleet::station::ppocr::CtcOptions options;
+  options.allowed = keyfleet::station::ppocr::latin_classes(c->recognizer->classes());
+  for (auto _ : state) {
+    bool rotated = false;
+    const cv::Mat cut = keyfleet::station::ppocr::crop_quad(c->crop, c->quad, &rotated);
+    const auto line = keyfleet::station::ppocr::ctc_decode(probs, c->recognizer->classes(), width,
+                                                           width / 2, c->quad, rotated, options);
+    benchmark::DoNotOptimize(cut.data);
+    benchmark::DoNotOptimize(line.words.size());
+  }
+}
+
+void timed(benchmark::internal::Benchmark* b) {
+  b->Unit(benchmark::kMillisecond)
+      ->UseRealTime()
+      ->Repetitions(5)
+      ->ReportAggregatesOnly(true)
+      ->ComputeStatistics("min", [](const std::vector<double>& v) {
+        return *std::min_element(v.begin(), v.end());
+      });
+}
+
 }  // namespace
 
-BENCHMARK_CAPTURE(read_keyframe, tesseract, std::string("tesseract"))
-    ->Unit(benchmark::kMillisecond)
-    ->UseRealTime()
-    ->Iterations(10)
-    ->Repetitions(3)
-    ->ReportAggregatesOnly(true);
+BENCHMARK_CAPTURE(read_keyframe, tesseract, std::string("tesseract"))->Apply(timed)->Iterations(5);
 BENCHMARK_CAPTURE(read_keyframe, mininet_tesseract, std::string("mininet+tesseract"))
-    ->Unit(benchmark::kMillisecond)
-    ->UseRealTime()
-    ->Iterations(10)
-    ->Repetitions(3)
-    ->ReportAggregatesOnly(true);
+    ->Apply(timed)
+    ->Iterations(5);
+BENCHMARK_CAPTURE(read_keyframe, ppocr, std::string("ppocr"))->Apply(timed)->Iterations(5);
 
-BENCHMARK_MAIN();
+BENCHMARK(BM_PpocrDetect)
+    ->ArgNames({"det640x480_0_det1280x736_1", "photo1280x720_0_resized640x480_1", "threads"})
+    ->ArgsProduct({{0, 1}, {0, 1}, {1, 2}})
+    ->Apply(timed)
+    ->Iterations(3);
+BENCHMARK(BM_PpocrDetectorNet)
+    ->ArgNames({"det640x480_0_det1280x736_1", "photo1280x720_0_resized640x480_1", "threads"})
+    ->ArgsProduct({{0, 1}, {1}, {1, 2}})
+    ->Apply(timed)
+    ->Iterations(3);
+BENCHMARK(BM_PpocrDbPostprocess)
+    ->ArgNames({"det640x480_0_det1280x736_1", "photo1280x720_0_resized640x480_1", "threads"})
+    ->ArgsProduct({{0, 1}, {0, 1}, {1}})
+    ->Apply(timed)
+    ->Iterations(20);
+BENCHMARK(BM_PpocrRecognize)
+    ->ArgNames({"width", "threads"})
+    ->ArgsProduct({{160, 320, 640}, {1, 2}})
+    ->Apply(timed)
+    ->Iterations(10);
+BENCHMARK(BM_PpocrRecognizerOverhead)
+    ->ArgNames({"width"})
+    ->Args({160})
+    ->Args({640})
+    ->Apply(timed)
+    ->Iterations(50);
+
+int main(int argc, char** argv) {
+  // As the station: Tesseract's OpenMP threads bounded to one (OMP_THREAD_LIMIT, re-executes).
+  keyfleet::limit_openmp_to_one_thread(argv);
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
