@@ -202,6 +202,8 @@ void add_reader_options(CLI::App& command, OcrOptions& o) {
       .add_option("--ppocr-space-probability", o.params.ppocr_space_probability,
                   "ppocr: split words where a space is this likely (0 = where it wins)")
       ->check(CLI::Range(0.0, 1.0));
+  command.add_option("--cut-word-margin", o.params.cut_word_margin,
+                     "ppocr: drop words this close to the image's edge (px, -1 = keep)");
   command.add_option("--lexicon", o.params.lexicon,
                      "word list to correct readings against (one word a line; empty = none)");
   command.add_option("--ppocr-latin-only", o.params.ppocr_latin_only,
