@@ -67,8 +67,11 @@ void StationAnalysis::apply(const AnalysisResult& r) {
   try {
     store_.save(r);
   } catch (const std::exception& e) {
-    // Left unanalysed in the database: a restarted station analyses it again.
-    logger_->error("could not save the analysis of {}: {}", to_string(r.key), e.what());
+    // Left unanalysed in the database: a restarted station analyses it again; this one does not
+    // retry it (what failed once, a full disk or a bad row, fails again at once).
+    unsaved_.insert(r.key);
+    logger_->error("could not save the analysis of {} (analysed again at the next start): {}",
+                   to_string(r.key), e.what());
     return;
   }
   switch (r.status) {
@@ -98,7 +101,8 @@ void StationAnalysis::apply(const AnalysisResult& r) {
 }
 
 void StationAnalysis::backfill() {
-  const std::vector<KeyframeKey> exclude(in_flight_.begin(), in_flight_.end());
+  std::vector<KeyframeKey> exclude(in_flight_.begin(), in_flight_.end());
+  exclude.insert(exclude.end(), unsaved_.begin(), unsaved_.end());
   const std::vector<KeyframeKey> keys = store_.unanalysed(4, exclude);
   if (keys.empty()) {
     backlog_ = false;

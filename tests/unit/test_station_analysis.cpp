@@ -10,6 +10,7 @@
 
 #include "keyfleet/common/image_codec.hpp"
 #include "keyfleet/common/logging.hpp"
+#include "keyfleet/common/sqlite.hpp"
 #include "keyfleet/station/analysis_pool.hpp"
 #include "keyfleet/station/analysis_store.hpp"
 #include "keyfleet/station/keyframe_analyzer.hpp"
@@ -296,6 +297,30 @@ TEST_F(AnalysisStoreTest, DeferredKeyframesAreAnalysedOnceTheQueueEmpties) {
   EXPECT_EQ(analysed.load(), 5);  // the deferred two and the three never analysed
   EXPECT_TRUE(store_.unanalysed(10).empty());
   EXPECT_EQ(store_.count_with_status(AnalysisStatus::kDone), 5u);
+}
+
+TEST_F(AnalysisStoreTest, AnAnalysisThatCannotBeSavedIsNotRetriedInALoop) {
+  for (const std::string robot : {"good", "bad"}) store_keyframe(robot, 0);
+  {
+    // A real SQLite failure on one keyframe's row, as a full disk or a broken row would give.
+    SqliteDb db(dir_.file("station.sqlite"));
+    db.exec(
+        "CREATE TRIGGER refuse_bad BEFORE INSERT ON keyframe_analysis WHEN NEW.robot_id = 'bad' "
+        "BEGIN SELECT RAISE(ABORT, 'refused by the test'); END");
+  }
+  std::atomic<int> analysed{0};
+  AnalysisPool pool({[&](const AnalysisJob& j) {
+                      ++analysed;
+                      return done_result(j);
+                    }},
+                    2, null_logger());
+  TopoMap map;
+  StationAnalysis analysis(keyframes_, store_, map, pool, null_logger());
+  analysis.restore(nullptr);
+  ASSERT_TRUE(analysis.drain(20s)) << "the unsaved analysis kept the backlog busy";
+  EXPECT_EQ(analysed.load(), 2);
+  // Not lost: still unanalysed in the database, for the next start.
+  EXPECT_EQ(store_.unanalysed(10), (std::vector<KeyframeKey>{{"bad", 0}}));
 }
 
 }  // namespace

@@ -50,6 +50,9 @@ class StationAnalysis {
   AnalysisPool& pool_;
   Logger logger_;
   std::set<KeyframeKey> in_flight_;
+  // Analyses that could not be saved in this run: left unanalysed for the next start, not
+  // analysed again now (the backlog would otherwise resubmit them in a loop).
+  std::set<KeyframeKey> unsaved_;
   bool backlog_ = true;  // there may be unanalysed keyframes in the database
 };
 
