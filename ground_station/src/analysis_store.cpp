@@ -85,7 +85,9 @@ std::int64_t as_int(std::uint64_t v) { return static_cast<std::int64_t>(v); }
 
 }  // namespace
 
-AnalysisStore::AnalysisStore(const std::string& path) : db_(path) { db_.exec(kSchema); }
+AnalysisStore::AnalysisStore(const std::string& path, SqliteDb::Mode mode) : db_(path, mode) {
+  if (mode == SqliteDb::Mode::kReadWrite) db_.exec(kSchema);
+}
 
 void AnalysisStore::save(const AnalysisResult& r) {
   db_.exec("BEGIN IMMEDIATE");

@@ -77,7 +77,12 @@ std::optional<Pose> pose_at(const SqliteStatement& row, int first) {
 
 }  // namespace
 
-KeyframeStore::KeyframeStore(const std::string& path) : db_(path) {
+KeyframeStore::KeyframeStore(const std::string& path, SqliteDb::Mode mode) : db_(path, mode) {
+  if (mode == SqliteDb::Mode::kReadOnly) {
+    auto columns = db_.prepare("SELECT 1 FROM pragma_table_info('keyframes') WHERE name = ?");
+    has_text_regions_ = columns.bind(1, std::string("text_regions")).step();
+    return;
+  }
   db_.exec(kSchema);
   // Databases written before keyframes carried text regions: their keyframes have none.
   db_.add_column_if_missing("keyframes", "text_regions", "BLOB");
@@ -266,8 +271,9 @@ std::optional<Keyframe> KeyframeStore::load(const std::string& robot_id,
   auto query = db_.prepare(
       "SELECT frame_index, capture_time_ns, vslam_keyframe_index, window_first_frame, "
       "window_last_frame, quality_score, sharpness_score, semantic_score, encoding, width, "
-      "height, image, pose_tx, pose_ty, pose_tz, pose_qx, pose_qy, pose_qz, pose_qw, "
-      "text_regions FROM keyframes WHERE robot_id = ? AND sequence_number = ?");
+      "height, image, pose_tx, pose_ty, pose_tz, pose_qx, pose_qy, pose_qz, pose_qw, " +
+      std::string(has_text_regions_ ? "text_regions" : "NULL") +
+      " FROM keyframes WHERE robot_id = ? AND sequence_number = ?");
   query.bind(1, robot_id).bind(2, as_int(sequence));
   if (!query.step()) return std::nullopt;
   Keyframe k;

@@ -299,6 +299,33 @@ TEST_F(AnalysisStoreTest, DeferredKeyframesAreAnalysedOnceTheQueueEmpties) {
   EXPECT_EQ(store_.count_with_status(AnalysisStatus::kDone), 5u);
 }
 
+// Questions to a finished run (keyfleet query, map, locate) open the stores read-only: they add
+// no schema to a file that is not a station's, and read a database written before text regions.
+TEST(ReadOnlyStores, WriteNothingAndReadOlderDatabases) {
+  test::TempDir dir;
+  const std::string other = dir.file("other.sqlite");
+  SqliteDb(other).exec("CREATE TABLE unrelated (x INTEGER)");
+  {
+    KeyframeStore keyframes(other, SqliteDb::Mode::kReadOnly);
+    const AnalysisStore analysis(other, SqliteDb::Mode::kReadOnly);
+    EXPECT_THROW(analysis.search_words("HOTEL"), SqliteError);
+  }
+  auto tables = SqliteDb(other, SqliteDb::Mode::kReadOnly)
+                    .prepare("SELECT group_concat(name) FROM sqlite_master WHERE type = 'table'");
+  ASSERT_TRUE(tables.step());
+  EXPECT_EQ(tables.text(0), "unrelated");
+  EXPECT_THROW(KeyframeStore(dir.file("missing.sqlite"), SqliteDb::Mode::kReadOnly), SqliteError);
+
+  const std::string old = dir.file("old.sqlite");
+  Keyframe k = test::make_valid_keyframe("drone_0", 3, 128, 96);
+  KeyframeStore(old).store(k, k.image.size(), 1);
+  SqliteDb(old).exec("ALTER TABLE keyframes DROP COLUMN text_regions");
+  const auto loaded = KeyframeStore(old, SqliteDb::Mode::kReadOnly).load("drone_0", 3);
+  ASSERT_TRUE(loaded.has_value());
+  EXPECT_EQ(loaded->image, k.image);
+  EXPECT_TRUE(loaded->text_regions.empty());
+}
+
 TEST_F(AnalysisStoreTest, AnAnalysisThatCannotBeSavedIsNotRetriedInALoop) {
   for (const std::string robot : {"good", "bad"}) store_keyframe(robot, 0);
   {

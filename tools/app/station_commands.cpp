@@ -72,12 +72,20 @@ KeyframeKey parse_key(const std::string& text) {
   }
 }
 
+// A finished run's database, opened read-only by every question: asking writes nothing.
+std::string database(const fs::path& station_dir) {
+  const fs::path path = station_dir / "station.sqlite";
+  if (!fs::exists(path)) throw StartupError("no station database " + path.string());
+  return path.string();
+}
+
 struct LoadedMap {
   station::KeyframeStore keyframes;
   station::AnalysisStore analysis;
   station::TopoMap map;
   explicit LoadedMap(const fs::path& dir)
-      : keyframes((dir / "station.sqlite").string()), analysis((dir / "station.sqlite").string()) {
+      : keyframes(database(dir), SqliteDb::Mode::kReadOnly),
+        analysis(database(dir), SqliteDb::Mode::kReadOnly) {
     station::rebuild_map(keyframes, analysis, map);
   }
   station::MapNodeId node(const std::string& text) const {
@@ -102,8 +110,7 @@ std::string describe(const station::TopoMap& map, station::MapNodeId id) {
 
 void query_words(const std::string& run, const std::string& text, std::size_t limit) {
   const fs::path dir = station_dir(run);
-  station::KeyframeStore keyframes((dir / "station.sqlite").string());  // schema for the join
-  const station::AnalysisStore store((dir / "station.sqlite").string());
+  const station::AnalysisStore store(database(dir), SqliteDb::Mode::kReadOnly);
   std::vector<station::StoredWord> words;
   try {
     words = store.search_words(text, limit);

@@ -30,7 +30,8 @@ struct StoredPlaceMatch {
 // rebuilds its place index without redoing ORB) and verified place matches.
 class AnalysisStore {
  public:
-  explicit AnalysisStore(const std::string& path);
+  // As KeyframeStore: kReadOnly creates no schema and writes nothing.
+  explicit AnalysisStore(const std::string& path, SqliteDb::Mode mode = SqliteDb::Mode::kReadWrite);
 
   // One transaction per result; a later kDone replaces an earlier kDeferred.
   void save(const AnalysisResult& result);

@@ -33,7 +33,9 @@ struct StoredKeyframeInfo {
 // metadata) exactly once per (robot, sequence), rejections, and each robot's latest stats.
 class KeyframeStore {
  public:
-  explicit KeyframeStore(const std::string& path);
+  // kReadWrite creates or upgrades the schema; kReadOnly (questions to a finished run) changes
+  // nothing in the file and throws SqliteError when it cannot be opened.
+  explicit KeyframeStore(const std::string& path, SqliteDb::Mode mode = SqliteDb::Mode::kReadWrite);
 
   StoreOutcome store(const Keyframe& keyframe, std::uint64_t serialized_bytes,
                      std::int64_t received_ns);
@@ -50,6 +52,7 @@ class KeyframeStore {
 
  private:
   mutable SqliteDb db_;
+  bool has_text_regions_ = true;  // false in a read-only database written before them
 };
 
 }  // namespace keyfleet::station
