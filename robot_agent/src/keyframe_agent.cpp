@@ -27,7 +27,15 @@ Keyframe KeyframeAgent::make_keyframe(const Frame& frame, std::vector<std::uint8
   return keyframe;
 }
 
+void KeyframeAgent::observe_link(std::int64_t now_ns) {
+  if (link_.matched_stations() == 0)
+    matched_since_ns_.reset();
+  else if (!matched_since_ns_)
+    matched_since_ns_ = now_ns;
+}
+
 void KeyframeAgent::process(const Frame& frame, std::int64_t now_ns) {
+  observe_link(now_ns);
   const SelectorStep step = selector_->push(frame);  // measures its own stages
   // Baselines: what this frame would cost as a sample, measured on the frames sampled
   // for the stream-all baseline and on every V-SLAM keyframe.
@@ -86,7 +94,11 @@ void KeyframeAgent::service(std::int64_t now_ns, std::chrono::milliseconds ack_w
     }
   }
   // The bounds first: a keyframe they give up on is not sent once more on its way out.
-  const auto evicted = outbox_.evict(now_ns);
+  observe_link(now_ns);
+  const bool by_age =
+      matched_since_ns_ &&
+      now_ns - *matched_since_ns_ > static_cast<std::int64_t>(config_.outbox.max_age_s * 1e9);
+  const auto evicted = outbox_.evict(now_ns, by_age);
   if (!evicted.empty()) {
     for (const auto sequence : evicted) never_sent_.erase(sequence);
     ledger_.record_dropped(evicted.size());

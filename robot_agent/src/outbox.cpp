@@ -1,6 +1,7 @@
 #include "keyfleet/agent/outbox.hpp"
 
 #include <cstring>
+#include <limits>
 
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/text_region_blob.hpp"
@@ -157,8 +158,9 @@ std::vector<Keyframe> Outbox::due_for_resend(std::int64_t now_ns, std::size_t ma
   return due;
 }
 
-std::vector<std::uint64_t> Outbox::evict(std::int64_t now_ns) {
-  const auto oldest_allowed = now_ns - static_cast<std::int64_t>(bounds_.max_age_s * 1e9);
+std::vector<std::uint64_t> Outbox::evict(std::int64_t now_ns, bool by_age) {
+  const auto oldest_allowed = by_age ? now_ns - static_cast<std::int64_t>(bounds_.max_age_s * 1e9)
+                                     : std::numeric_limits<std::int64_t>::min();
   auto query = db_.prepare(
       "SELECT sequence_number FROM pending WHERE created_ns < ? OR sequence_number NOT IN "
       "(SELECT sequence_number FROM pending ORDER BY sequence_number DESC LIMIT ?)");

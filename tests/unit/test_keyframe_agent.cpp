@@ -391,8 +391,7 @@ TEST_F(KeyframeAgentTest, EvictionByCountDropsTheOldestAndCountsThem) {
 }
 
 TEST_F(KeyframeAgentTest, EvictionByAgeDropsExpiredKeyframesAndCountsThem) {
-  config_.outbox.max_age_s = 10.0;
-  link_.matched = 0;  // bounds apply with or without a station
+  config_.outbox.max_age_s = 10.0;  // a station is matched all along but never acknowledges
   start({{0, 1}, {}, {}});
   agent_->process(make_frame(0), kStart);
   agent_->process(make_frame(1), kStart + 5 * kSecond);
@@ -407,6 +406,26 @@ TEST_F(KeyframeAgentTest, EvictionByAgeDropsExpiredKeyframesAndCountsThem) {
 
   service(kStart + 15 * kSecond + 1);
   EXPECT_EQ(agent_->pending(), 0u);
+  EXPECT_EQ(stats().keyframes_dropped, 2u);
+}
+
+TEST_F(KeyframeAgentTest, AnOutageLongerThanMaxAgeLosesNothingTheCountBoundKeeps) {
+  config_.outbox.max_age_s = 10.0;
+  link_.matched = 0;  // no station: an outage of an hour
+  start({{0, 1}, {}, {}});
+  agent_->process(make_frame(0), kStart);
+  agent_->process(make_frame(1), kStart + 5 * kSecond);
+  service(kStart + 3600 * kSecond);
+  EXPECT_EQ(in_outbox(), (std::vector<std::uint64_t>{0, 1}));
+  EXPECT_EQ(stats().keyframes_dropped, 0u);
+
+  // The station comes back: the keyframes get max_age_s from then to be acknowledged.
+  link_.matched = 1;
+  service(kStart + 3601 * kSecond);
+  service(kStart + 3611 * kSecond);
+  EXPECT_EQ(in_outbox(), (std::vector<std::uint64_t>{0, 1}));
+  service(kStart + 3611 * kSecond + 1);  // matched more than max_age_s, still unacknowledged
+  EXPECT_TRUE(in_outbox().empty());
   EXPECT_EQ(stats().keyframes_dropped, 2u);
 }
 

@@ -127,9 +127,12 @@ struct LedgerConfig {
 struct OutboxConfig {
   std::string path = "outbox.sqlite";  // relative to the run directory
   std::uint64_t max_pending = 1000;    // unacknowledged keyframes kept at most
-  double max_age_s = 3600.0;           // oldest unacknowledged keyframe kept at most this long (s)
-  double resend_after_s = 2.0;         // resend when unacknowledged this long (s)
-  int resend_batch = 20;               // at most this many retransmissions per resend pass
+  // Unacknowledged this long (s) while a station was matched without a break: given up on. The
+  // age bound does not run while no station is matched (an outage loses only what max_pending
+  // gives up).
+  double max_age_s = 3600.0;
+  double resend_after_s = 2.0;  // resend when unacknowledged this long (s)
+  int resend_batch = 20;        // at most this many retransmissions per resend pass
 };
 
 struct AgentConfig {

@@ -1,6 +1,7 @@
 #pragma once
 #include <chrono>
 #include <memory>
+#include <optional>
 #include <set>
 
 #include "keyfleet/agent/bandwidth_ledger.hpp"
@@ -25,7 +26,9 @@ class KeyframeAgent {
   void process(const Frame& frame, std::int64_t now_ns);
   void finish_stream(std::int64_t now_ns);
   // Takes acknowledgements (waiting up to ack_wait for the first), resends what is due
-  // while a station is matched, evicts what the outbox bounds give up on.
+  // while a station is matched, evicts what the outbox bounds give up on: the count always,
+  // the age (max_age_s) only once a station has been matched that long without a break, so
+  // an outage of any length loses nothing the count bound keeps.
   void service(std::int64_t now_ns, std::chrono::milliseconds ack_wait);
   void publish_stats(bool finished, std::int64_t now_ns);
 
@@ -35,6 +38,7 @@ class KeyframeAgent {
 
  private:
   void publish_selection(const Selection& selection, std::int64_t now_ns);
+  void observe_link(std::int64_t now_ns);
   Keyframe make_keyframe(const Frame& frame, std::vector<std::uint8_t> image) const;
 
   AgentConfig config_;
@@ -46,7 +50,8 @@ class KeyframeAgent {
   Logger logger_;
   BandwidthLedger ledger_;
   std::uint64_t rejected_ = 0;
-  std::set<std::uint64_t> never_sent_;  // in the outbox, first write failed
+  std::set<std::uint64_t> never_sent_;            // in the outbox, first write failed
+  std::optional<std::int64_t> matched_since_ns_;  // a station matched since, without a break
 };
 
 }  // namespace keyfleet::agent

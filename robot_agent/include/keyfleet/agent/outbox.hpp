@@ -25,8 +25,9 @@ class Outbox {
   bool acknowledge(std::uint64_t sequence);
   // Oldest first: keyframes last sent at least resend_after_s ago, at most `max`.
   std::vector<Keyframe> due_for_resend(std::int64_t now_ns, std::size_t max);
-  // Applies the bounds; returns the sequence numbers given up on.
-  std::vector<std::uint64_t> evict(std::int64_t now_ns);
+  // Applies the bounds (the age one only with `by_age`); returns the sequence numbers given up
+  // on.
+  std::vector<std::uint64_t> evict(std::int64_t now_ns, bool by_age = true);
   std::uint64_t pending() const;
   const std::string& path() const { return db_.path(); }
 
