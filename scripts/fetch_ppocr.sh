@@ -17,8 +17,9 @@ outputs=(ppocr_det_640x480.onnx ppocr_det_1280x736.onnx ppocr_rec_w160.onnx ppoc
          ppocr_rec_w640.onnx ppocr_keys_v1.txt ppocr_meta.json)
 
 warn() {
-  echo "fetch_ppocr: WARNING: $*; the ppocr text engine will not be available" \
-       "(the default engine, tesseract, does not need it)" >&2
+  echo "fetch_ppocr: WARNING: $*; the ppocr text engine (the station's default) will not be" \
+       "available: the station will name the missing file at start-up" \
+       "(analysis.text.engine: tesseract runs without it)" >&2
   exit 0
 }
 
