@@ -276,6 +276,23 @@ TEST_F(AnalysisStoreTest, StationAnalysisFeedsTheMapAndARestartRestoresIt) {
   EXPECT_EQ(restarted_places.size(), 3u);  // the ORB features stored by the first run
 }
 
+// A station's analysis over the fixture's database whose engines only count their calls; it has
+// restored (so it has a backlog to work through).
+struct CountingAnalysis {
+  CountingAnalysis(KeyframeStore& keyframes, AnalysisStore& store, std::atomic<int>& analysed)
+      : pool({[&analysed](const AnalysisJob& j) {
+               ++analysed;
+               return done_result(j);
+             }},
+             2, null_logger()),
+        analysis(keyframes, store, map, pool, null_logger()) {
+    analysis.restore(nullptr);
+  }
+  TopoMap map;
+  AnalysisPool pool;
+  StationAnalysis analysis;
+};
+
 TEST_F(AnalysisStoreTest, DeferredKeyframesAreAnalysedOnceTheQueueEmpties) {
   for (std::uint64_t s = 0; s < 5; ++s) store_keyframe("drone_0", s);
   for (std::uint64_t s : {1, 3}) {
@@ -285,14 +302,8 @@ TEST_F(AnalysisStoreTest, DeferredKeyframesAreAnalysedOnceTheQueueEmpties) {
     store_.save(deferred);
   }
   std::atomic<int> analysed{0};
-  AnalysisPool pool({[&](const AnalysisJob& j) {
-                      ++analysed;
-                      return done_result(j);
-                    }},
-                    2, null_logger());
-  TopoMap map;
-  StationAnalysis analysis(keyframes_, store_, map, pool, null_logger());
-  analysis.restore(nullptr);
+  CountingAnalysis counting(keyframes_, store_, analysed);
+  StationAnalysis& analysis = counting.analysis;
   ASSERT_TRUE(analysis.drain(20s));
   EXPECT_EQ(analysed.load(), 5);  // the deferred two and the three never analysed
   EXPECT_TRUE(store_.unanalysed(10).empty());
@@ -336,14 +347,8 @@ TEST_F(AnalysisStoreTest, AnAnalysisThatCannotBeSavedIsNotRetriedInALoop) {
         "BEGIN SELECT RAISE(ABORT, 'refused by the test'); END");
   }
   std::atomic<int> analysed{0};
-  AnalysisPool pool({[&](const AnalysisJob& j) {
-                      ++analysed;
-                      return done_result(j);
-                    }},
-                    2, null_logger());
-  TopoMap map;
-  StationAnalysis analysis(keyframes_, store_, map, pool, null_logger());
-  analysis.restore(nullptr);
+  CountingAnalysis counting(keyframes_, store_, analysed);
+  StationAnalysis& analysis = counting.analysis;
   ASSERT_TRUE(analysis.drain(20s)) << "the unsaved analysis kept the backlog busy";
   EXPECT_EQ(analysed.load(), 2);
   // Not lost: still unanalysed in the database, for the next start.
