@@ -5,11 +5,13 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -73,7 +75,7 @@ std::string percent(double value) {
 std::string eval_row(station::TextReader& reader, const std::string& engine,
                      const std::string& lexicon, const OcrOptions& o) {
   std::string row = "| " + engine + " | " + lexicon;
-  std::vector<double> photo_ms, word_ms;
+  std::optional<double> photo_ms, word_ms;  // of the first set of each kind
   for (const auto& name : o.sets) {
     const DataSet& set = find_set(name);
     const std::string folder = (fs::path(o.data) / set.folder).string();
@@ -81,20 +83,18 @@ std::string eval_row(station::TextReader& reader, const std::string& engine,
       const auto r = eval::evaluate_end_to_end(reader, folder, o.max_images);
       row += " | " + percent(r.counts.recall()) + " / " + percent(r.counts.precision()) + " / **" +
              percent(r.counts.f_score()) + "** (" + std::to_string(r.images) + ")";
-      photo_ms.push_back(r.median_ms);
+      if (!photo_ms) photo_ms = r.median_ms;
     } else {
       const auto r = eval::evaluate_cropped_words(reader, folder, o.max_words);
       row += " | " + percent(r.accuracy()) + " (" + std::to_string(r.correct) + "/" +
              std::to_string(r.words) + ")";
-      word_ms.push_back(r.median_ms);
+      if (!word_ms) word_ms = r.median_ms;
     }
   }
-  const auto first_or_dash = [](const std::vector<double>& ms) {
-    char text[16];
-    std::snprintf(text, sizeof text, "%.0f", ms.empty() ? 0.0 : ms.front());
-    return ms.empty() ? std::string("-") : std::string(text);
+  const auto ms_cell = [](std::optional<double> ms) {
+    return ms ? std::to_string(std::lround(*ms)) : std::string("-");
   };
-  return row + " | " + first_or_dash(photo_ms) + " | " + first_or_dash(word_ms) + " |\n";
+  return row + " | " + ms_cell(photo_ms) + " | " + ms_cell(word_ms) + " |\n";
 }
 
 void run_eval(const OcrOptions& o) {

@@ -7,12 +7,15 @@
 
 namespace keyfleet::station {
 
+std::array<cv::Point2f, 4> corners_of(const cv::Rect& rect) {
+  const auto x0 = float(rect.x), y0 = float(rect.y);
+  const auto x1 = float(rect.x + rect.width), y1 = float(rect.y + rect.height);
+  return {cv::Point2f(x0, y0), cv::Point2f(x1, y0), cv::Point2f(x1, y1), cv::Point2f(x0, y1)};
+}
+
 std::array<cv::Point2f, 4> outline_of(const ReadWord& word) {
   const std::vector<cv::Point2f> corners(word.quad.begin(), word.quad.end());
-  if (cv::contourArea(corners) > 0) return word.quad;
-  const auto x0 = float(word.box.x), y0 = float(word.box.y);
-  const auto x1 = float(word.box.x + word.box.width), y1 = float(word.box.y + word.box.height);
-  return {cv::Point2f(x0, y0), cv::Point2f(x1, y0), cv::Point2f(x1, y1), cv::Point2f(x0, y1)};
+  return cv::contourArea(corners) > 0 ? word.quad : corners_of(word.box);
 }
 
 bool cut_by_frame(const cv::Rect& box, const cv::Size& size, int margin) {

@@ -163,13 +163,8 @@ std::vector<StoredKeyframe> FleetFixture::stored_keyframes() const {
 }
 
 std::int64_t FleetFixture::outbox_pending(const std::string& robot_id) const {
-  const fs::path path = agent_dir(robot_id) / "outbox.sqlite";
-  if (!fs::exists(path)) return 0;
   try {
-    SqliteDb db(path.string(), SqliteDb::Mode::kReadOnly);
-    auto q = db.prepare("SELECT COUNT(*) FROM pending");
-    q.step();
-    return q.int64(0);
+    return static_cast<std::int64_t>(outbox_pending_sequences(robot_id).size());
   } catch (const SqliteError&) {
     return 0;
   }

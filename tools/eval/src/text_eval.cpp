@@ -41,12 +41,6 @@ std::size_t trailing_mark(const std::string& s) {
 
 using Quad = std::array<cv::Point2f, 4>;
 
-Quad corners_of(const cv::Rect& rect) {
-  const auto x0 = float(rect.x), y0 = float(rect.y);
-  const auto x1 = float(rect.x + rect.width), y1 = float(rect.y + rect.height);
-  return {cv::Point2f(x0, y0), cv::Point2f(x1, y0), cv::Point2f(x1, y1), cv::Point2f(x0, y1)};
-}
-
 std::vector<cv::Point2f> hull_of(const Quad& quad) {
   std::vector<cv::Point2f> hull;
   cv::convexHull(std::vector<cv::Point2f>(quad.begin(), quad.end()), hull);
@@ -111,7 +105,7 @@ double quad_iou(const std::array<cv::Point2f, 4>& a, const std::array<cv::Point2
 }
 
 double quad_rect_iou(const std::array<cv::Point2f, 4>& quad, const cv::Rect& rect) {
-  return rect.width > 0 && rect.height > 0 ? quad_iou(quad, corners_of(rect)) : 0.0;
+  return rect.width > 0 && rect.height > 0 ? quad_iou(quad, station::corners_of(rect)) : 0.0;
 }
 
 bool transcriptions_match(const std::string& gt_text, const std::string& detected,

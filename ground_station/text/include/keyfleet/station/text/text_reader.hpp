@@ -21,6 +21,9 @@ struct ReadWord {
   std::array<cv::Point2f, 4> quad{};
 };
 
+// The corners of `rect`, clockwise from its top-left.
+std::array<cv::Point2f, 4> corners_of(const cv::Rect& rect);
+
 // `word.quad` where it has an area, else the corners of `word.box`.
 std::array<cv::Point2f, 4> outline_of(const ReadWord& word);
 
