@@ -2,7 +2,7 @@
 # The MiniNet recipe, end to end, on this CPU: Debian packages, training data from the
 # scenario generator, training, ONNX export with OpenCV checks, evaluation table.
 #   ./scripts/train_mininet.sh [WORK_DIR]        (default: build/mininet)
-# Environment: STEPS (16000), PAIRS (3000 generated image + mask pairs), KEYFLEET_DATA,
+# Environment: STEPS (12000), PAIRS (3000 generated image + mask pairs), KEYFLEET_DATA,
 # MODEL_OUT (WORK_DIR/mininet_text.onnx: the shipped models/mininet/mininet_text.onnx is replaced
 # only by hand, after a full evaluation of the candidate).
 # With ../shared/data, street photos become facades, the 1000 ICDAR 2015 training photos join the
@@ -13,7 +13,7 @@
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 work=${1:-$root/build/mininet}
-steps=${STEPS:-16000}
+steps=${STEPS:-12000}
 pairs=${PAIRS:-3000}
 model_out=${MODEL_OUT:-$work/mininet_text.onnx}
 data_root=${KEYFLEET_DATA:-$root/../shared/data}
@@ -57,7 +57,7 @@ if [ -d "$data_root/icdar2015/test_blurred" ]; then
   trained_on="$trained_on + ICDAR 2015 test_blurred img_201..500"
 fi
 /usr/bin/python3 "$root/models/mininet/train.py" --data "$work/pairs" --work "$work/train" \
-  --steps "$steps" "${real_photos[@]}"
+  --steps "$steps" --workers 1 "${real_photos[@]}"
 /usr/bin/python3 "$root/models/mininet/export.py" --checkpoint "$work/train/best.pt" \
   --out "$model_out" --input-width 320 --input-height 256 \
   --training-data "$trained_on, $steps steps, best validation checkpoint"

@@ -8,7 +8,8 @@ Scales. The agent resizes its 640x480 frames to 320x256 (x 0.5, y 0.53). ICDAR p
 (640x360, the agent camera's width) and training crops zoom 0.4..1 of that, so a median word is
 4.6..11.5 px tall in training, bracketing the full-frame evaluation (1280x720 squeezed to 320x256:
 x 0.25, y 0.36, median word 8 px tall). Generated pairs are 640x480 and get the same crop zoom
-(eval at x 0.5, y 0.53). A horizontal squeeze 0.7..1 (ASPECT) covers both resizes' aspect change.
+(eval at x 0.5, y 0.53). The whole-frame resizes change the aspect: x/y 0.70 (ICDAR) and 0.94
+(generated) at 320x256, 1.12 and 1.5 at 512x256; ASPECT (0.7..1.5) covers all four.
 """
 import glob
 import os
@@ -22,8 +23,9 @@ ICDAR_SCALE = 0.5
 VAL_EVERY = 10  # ICDAR train photos whose id is a multiple of 10 (img_10..img_1000) validate
 BLURRED_HELD_OUT = 100  # test_blurred img_101..200 are the evaluation's; training uses img_201..500
 VIEW_W, VIEW_H = 320, 256  # validation: the whole frame at the agent's input size (Table III)
+VIEW_SIZES = ((320, 256), (512, 256))  # the agent's input and Table III's headline size
 
-ASPECT = (0.7, 1.0)        # horizontal / vertical scale of a crop
+ASPECT = (0.7, 1.5)        # horizontal / vertical scale of a crop
 JITTER = 0.1               # the paper: shifts and scales up to 10 %
 CONTRAST = (0.9, 1.2)
 GREY_P = 0.2
@@ -102,19 +104,21 @@ def load_icdar(folder, ids, scale=ICDAR_SCALE):
     return pairs
 
 
-def load_icdar_views(folder, ids):
-    """Validation views as Table III scores them: the whole photo resized to VIEW_W x VIEW_H (as
-    cv::dnn::blobFromImages does), the truth drawn at full size then resized (nearest);
-    `###` pixels keep IGNORE so both IoUs (### as text, ### left out) can be computed."""
-    views = []
+def load_icdar_full(folder, ids):
+    """(photo, mask) per id at full resolution: validation views are made from these as Table III
+    makes them, so `###` pixels keep IGNORE and both IoUs (### as text, ### left out) are known."""
+    pairs = []
     for i in ids:
         image = cv2.imread(os.path.join(folder, "images", f"img_{i}.jpg"), cv2.IMREAD_COLOR)
-        mask = icdar_mask(image.shape, read_quads(os.path.join(folder, "gt", f"gt_img_{i}.txt")))
-        views.append(whole_view(image, mask))
-    return views
+        if image is None:
+            raise SystemExit(f"train.py: unreadable photo {folder}/images/img_{i}.jpg")
+        pairs.append((image, icdar_mask(image.shape,
+                                        read_quads(os.path.join(folder, "gt", f"gt_img_{i}.txt")))))
+    return pairs
 
 
 def whole_view(image, mask, width=VIEW_W, height=VIEW_H):
+    """The whole frame resized as cv::dnn::blobFromImages does, the truth resized (nearest)."""
     img = cv2.resize(image, (width, height), interpolation=cv2.INTER_LINEAR)
     msk = cv2.resize(mask, (width, height), interpolation=cv2.INTER_NEAREST)
     return (img.astype(np.float32).transpose(2, 0, 1) / 255.0 - 0.5), msk
@@ -148,18 +152,20 @@ def motion_kernel(length, angle_deg):
     return kernel / kernel.sum()
 
 
-def augment(image, mask, rng):
-    """A crop of a frame to TRAIN_W x TRAIN_H: zoom 0.4..1 (the crop's height 128 px .. the frame's
-    height, or half its width), centred on text half of the time; the paper's shifts and scales up
-    to 10 %, horizontal flip, contrast 0.9..1.2, greyscale (p 0.2); a horizontal squeeze 0.7..1;
+def augment(image, mask, rng, out_w=TRAIN_W, out_h=TRAIN_H):
+    """A crop of a frame to out_w x out_h (TRAIN_W x TRAIN_H by default): zoom 0.36..1 output px
+    per frame px (TRAIN_H over a height drawn between TRAIN_H and the frame's height, or half its
+    width; a larger crop keeps the zoom and sees more of the frame), centred on text half of the
+    time; the paper's shifts and scales up to 10 %, horizontal flip, contrast 0.9..1.2, greyscale
+    (p 0.2); a horizontal / vertical scale ratio in ASPECT;
     motion blur (p 0.5, 3..15 px at training scale, horizontal half the time, else any direction);
     JPEG re-encoding (p 0.5, quality 30..90). Returns (CHW float32 image, HW uint8 mask)."""
     h, w = image.shape[:2]
-    crop_h = rng.uniform(TRAIN_H, min(h, w / 2))
+    zoom = TRAIN_H / rng.uniform(TRAIN_H, min(h, w / 2))  # output px per frame px, before jitter
     s = rng.uniform(1 - JITTER, 1 + JITTER)
-    ky = TRAIN_H / crop_h * s
-    kx = max(ky * rng.uniform(*ASPECT), TRAIN_W / w)  # the window never wider than the frame
-    win_w, win_h = TRAIN_W / kx, TRAIN_H / ky
+    ky = zoom * s
+    kx = max(ky * rng.uniform(*ASPECT), out_w / w)  # the window never wider than the frame
+    win_w, win_h = out_w / kx, out_h / ky
     ys, xs = np.nonzero(mask == 1)
     if len(xs) and rng.random() < 0.5:
         k = rng.randrange(len(xs))
@@ -168,13 +174,13 @@ def augment(image, mask, rng):
         cx, cy = rng.uniform(0, w), rng.uniform(0, h)
     cx = float(np.clip(cx, win_w / 2, max(win_w / 2, w - win_w / 2)))
     cy = float(np.clip(cy, win_h / 2, max(win_h / 2, h - win_h / 2)))
-    tx = rng.uniform(-JITTER, JITTER) * TRAIN_W
-    ty = rng.uniform(-JITTER, JITTER) * TRAIN_H
-    m = np.array([[kx, 0, TRAIN_W / 2 + tx - kx * cx],
-                  [0, ky, TRAIN_H / 2 + ty - ky * cy]], dtype=np.float32)
-    img = cv2.warpAffine(image, m, (TRAIN_W, TRAIN_H), flags=cv2.INTER_AREA,
+    tx = rng.uniform(-JITTER, JITTER) * out_w
+    ty = rng.uniform(-JITTER, JITTER) * out_h
+    m = np.array([[kx, 0, out_w / 2 + tx - kx * cx],
+                  [0, ky, out_h / 2 + ty - ky * cy]], dtype=np.float32)
+    img = cv2.warpAffine(image, m, (out_w, out_h), flags=cv2.INTER_AREA,
                          borderMode=cv2.BORDER_REFLECT)
-    msk = cv2.warpAffine(mask, m, (TRAIN_W, TRAIN_H), flags=cv2.INTER_NEAREST,
+    msk = cv2.warpAffine(mask, m, (out_w, out_h), flags=cv2.INTER_NEAREST,
                          borderMode=cv2.BORDER_REFLECT)
     if rng.random() < 0.5:
         img, msk = img[:, ::-1], msk[:, ::-1]
@@ -196,3 +202,67 @@ def augment(image, mask, rng):
         img = cv2.imdecode(code, cv2.IMREAD_COLOR).astype(np.float32)
     img = img / 255.0 - 0.5
     return np.ascontiguousarray(img.transpose(2, 0, 1)), np.ascontiguousarray(msk)
+
+
+def save_pairs(folder, pairs, quality):
+    """images/NNNNNN.jpg (JPEG `quality`) + masks/NNNNNN.png, mask values kept (0, 1, IGNORE)."""
+    os.makedirs(os.path.join(folder, "images"), exist_ok=True)
+    os.makedirs(os.path.join(folder, "masks"), exist_ok=True)
+    for n, (image, mask) in enumerate(pairs):
+        cv2.imwrite(os.path.join(folder, "images", f"{n:06d}.jpg"), image,
+                    [cv2.IMWRITE_JPEG_QUALITY, quality])
+        cv2.imwrite(os.path.join(folder, "masks", f"{n:06d}.png"), mask)
+
+
+def load_saved_pairs(folder):
+    """What save_pairs wrote, masks as they were."""
+    pairs = []
+    for path in sorted(glob.glob(os.path.join(folder, "images", "*.jpg"))):
+        name = os.path.splitext(os.path.basename(path))[0]
+        mask = cv2.imread(os.path.join(folder, "masks", name + ".png"), cv2.IMREAD_GRAYSCALE)
+        pairs.append((cv2.imread(path, cv2.IMREAD_COLOR), mask))
+    return pairs
+
+
+class Sources:
+    """Everything one training run reads: training pairs per source, validation views per size.
+
+    From the original folders (generated pairs, ICDAR 2015 train and test_blurred) or from a
+    packed folder (pack.py: the same training pairs at their training scale, for a machine that
+    has no copy of the data; validation views are made from the original photos in both cases).
+    """
+
+    def __init__(self, pairs_dir, validation, icdar_train="", shared="", packed=""):
+        self.generated, self.icdar_train, self.blurred = [], [], []
+        generated_val, real_val = [], []
+        if packed:
+            for part in sorted(glob.glob(os.path.join(packed, "part*"))):
+                self.generated += load_saved_pairs(os.path.join(part, "generated"))
+                self.icdar_train += load_saved_pairs(os.path.join(part, "icdar_train"))
+                self.blurred += load_saved_pairs(os.path.join(part, "blurred"))
+            generated_val = load_saved_pairs(os.path.join(packed, "generated_val"))
+            icdar_train = os.path.join(packed, "icdar_val")
+            if os.path.isdir(os.path.join(icdar_train, "images")):
+                real_val = load_icdar_full(icdar_train, icdar_ids(icdar_train))
+        else:
+            pairs = load_pairs(pairs_dir)
+            held = max(1, int(len(pairs) * validation))
+            self.generated, generated_val = pairs[:-held], pairs[-held:]  # the last: other streets
+            if icdar_train and os.path.isdir(os.path.join(icdar_train, "images")):
+                train_ids, val_ids = icdar_split(icdar_ids(icdar_train))
+                self.icdar_train = load_icdar(icdar_train, train_ids)
+                real_val = load_icdar_full(icdar_train, val_ids)
+            elif icdar_train:
+                print(f"no ICDAR training photos in {icdar_train}", flush=True)
+            folder = os.path.join(shared, "icdar2015", "test_blurred") if shared else ""
+            if folder and os.path.isdir(folder):
+                ids = [i for i in icdar_ids(folder) if i > 100 + BLURRED_HELD_OUT]
+                self.blurred = load_icdar(folder, ids)
+            elif shared:
+                print(f"no ICDAR test_blurred photos under {shared}", flush=True)
+        self.generated_val = generated_val
+        self.real_val = real_val
+        self.generated_views = {size: [whole_view(i, m, *size) for i, m in generated_val]
+                                for size in VIEW_SIZES}
+        self.real_views = {size: [whole_view(i, m, *size) for i, m in real_val]
+                           for size in VIEW_SIZES}

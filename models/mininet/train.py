@@ -1,28 +1,32 @@
-"""Trains MiniNet for text segmentation on the CPU, the paper's recipe scaled to 2 cores.
+"""Trains MiniNet for text segmentation, the paper's recipe scaled to 2 CPU cores (or a GPU).
 
   /usr/bin/python3 models/mininet/train.py --data PAIRS --work DIR [--steps N]
-      [--icdar-train SHARED/icdar2015/train] [--icdar SHARED]
+      [--icdar-train SHARED/icdar2015/train] [--icdar SHARED] [--packed DIR]
+      [--device cuda --workers 6 --batch 32 --mix 12,16,4 --crop 512x256]
 
 Sources (data.py): generated pairs from `keyfleet scenario training` (PAIRS: images/ + masks/);
 with --icdar-train, the ICDAR 2015 training photos, legible quads as text and `###` quads left out
 of the loss (ignore index 255), except every 10th image id (img_10, img_20, ..., img_1000: 100
 photos), which never trains and is the validation set; with --icdar, ICDAR 2015 test_blurred
-img_201..500 (img_101..200 are the evaluation's). Each batch has a fixed number of each
-(--mix generated,icdar-train,test_blurred; default 3,4,1 of 8: five eighths real photos).
+img_201..500 (img_101..200 are the evaluation's). --packed DIR reads the same sources as pack.py
+wrote them (for a machine without the data). Each batch has a fixed number of each (--mix
+generated,icdar-train,test_blurred; default 2,5,1 of 8: three quarters real photos).
 Adam (lr 1e-3), polynomial decay (power 0.9); cross-entropy with median-frequency class weights
 raised to a power, w_c = (f_median / f_c) ** power, over the pixels that count; augmentation:
-see data.augment. Batch 8 crops of 256x128.
+see data.augment. Batch 8 crops of 256x128 by default (--crop).
 
-Every --validate-every steps: the held-out real photos whole, at the agent's 320x256 input, as
-Table III scores them (argmax; IoU of the text class with `###` counted as text, and with `###`
-left out), and the last 5 % of the generated pairs likewise; a row in WORK/validation.csv;
-WORK/latest.pt (resume point: network, optimizer, schedule, step, RNG states, best so far) and
-WORK/best.pt (highest real-photo IoU; generated IoU without real photos). A rerun resumes.
-Deterministic from --seed for a given thread count and machine: Python's, NumPy's and torch's
-generators are seeded and checkpointed, and the data order is drawn from one random.Random; the
-remaining freedom is the float summation order of torch's CPU kernels (fixed for a fixed
---threads on the same build, not across thread counts or machines); a run stopped and resumed
-from latest.pt ends with the same weights as one straight through (checked: max |diff| 0).
+Every --validate-every steps: the held-out real photos whole, at the agent's 320x256 input and at
+512x256, as Table III scores them (argmax; IoU of the text class with `###` counted as text, and
+with `###` left out), and the last 5 % of the generated pairs likewise; a row in
+WORK/validation.csv; WORK/latest.pt (resume point: network, optimizer, schedule, step, torch's RNG,
+best so far) and WORK/best.pt (highest mean real-photo IoU over the two sizes; generated IoU
+without real photos). A rerun resumes.
+Deterministic from --seed for a given device and machine: the crops of step k are drawn from a
+generator seeded by (seed, k), whatever --workers prepares them, and torch's generator (alpha
+dropout) is seeded and checkpointed; the remaining freedom is the float summation order of torch's
+kernels (fixed for a fixed --threads on the same CPU build, not across thread counts, machines or
+devices); a run stopped and resumed from latest.pt ends with the same weights as one straight
+through on the CPU.
 OpenMP threads sleep instead of spinning while waiting (OMP_WAIT_POLICY=PASSIVE unless set): on
 the 2 shared cores, spinning made a step 2.56 s instead of 0.38 s whenever builds ran beside it.
 CSV columns: loss (mean since the last row), s_per_step (same span, validation excluded),
@@ -36,6 +40,7 @@ import time
 
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")  # before torch loads libgomp
 
+import cv2  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 import torch.nn.functional as F  # noqa: E402
@@ -43,19 +48,22 @@ import torch.nn.functional as F  # noqa: E402
 import data  # noqa: E402
 from mininet import MiniNet, count_flops, count_parameters
 
-CSV_FIELDS = ["step", "loss", "lr", "s_per_step", "real_iou", "real_recall", "real_precision",
-              "real_iou_legible", "generated_iou", "best_real_iou", "wall_s"]
+SIZES = ["x".join(map(str, size)) for size in data.VIEW_SIZES]
+CSV_FIELDS = (["step", "loss", "lr", "s_per_step"]
+              + [f"real_{k}_{n}" for n in SIZES for k in ("iou", "recall", "precision")]
+              + [f"real_iou_legible_{n}" for n in SIZES] + [f"generated_iou_{n}" for n in SIZES]
+              + ["score", "best_score", "wall_s"])
 
 
-def evaluate(net, views, dont_care_as_text=True):
+def evaluate(net, views, device="cpu"):
     """Recall, precision, IoU of the text class over whole views (argmax). IGNORE pixels count as
-    text when dont_care_as_text (Table III), else they are left out."""
+    text (Table III); iou_legible leaves them out."""
     net.eval()
     counts = np.zeros((2, 3))  # [### as text, ### left out] x [tp, fp, fn]
     with torch.no_grad():
         for i in range(0, len(views), 4):
-            x = torch.from_numpy(np.stack([v[0] for v in views[i:i + 4]]))
-            pred = net(x).argmax(1).numpy() == 1
+            x = torch.from_numpy(np.stack([v[0] for v in views[i:i + 4]])).to(device)
+            pred = net(x).argmax(1).cpu().numpy() == 1
             truth = np.stack([v[1] for v in views[i:i + 4]])
             for k, (text, counted) in enumerate(((truth != 0, truth >= 0),
                                                  (truth == 1, truth != data.IGNORE))):
@@ -66,14 +74,54 @@ def evaluate(net, views, dont_care_as_text=True):
     def scores(tp, fp, fn):
         return {"recall": tp / max(1, tp + fn), "precision": tp / max(1, tp + fp),
                 "iou": tp / max(1, tp + fp + fn)}
-    out = scores(*counts[0 if dont_care_as_text else 1])
+    out = scores(*counts[0])
     out["iou_legible"] = scores(*counts[1])["iou"]
     return out
 
 
-def rng_states(rng):
-    return {"rng": rng.getstate(), "numpy_rng": np.random.get_state(),
-            "torch_rng": torch.get_rng_state()}
+class StepBatches(torch.utils.data.Dataset):
+    """Item k: the batch of step k, drawn from a generator seeded by (seed, k) alone."""
+
+    def __init__(self, sources, mix, seed, crop):
+        self.sources, self.mix, self.seed, self.crop = sources, mix, seed, crop
+
+    def __len__(self):
+        return 1 << 30
+
+    def __getitem__(self, step):
+        rng = random.Random(f"{self.seed}:{step}")
+        batch = [data.augment(*source[rng.randrange(len(source))], rng, *self.crop)
+                 for source, count in zip(self.sources, self.mix) for _ in range(count)]
+        return (torch.from_numpy(np.stack([b[0] for b in batch])),
+                torch.from_numpy(np.stack([b[1] for b in batch])).long())
+
+
+def one_thread_worker(_):
+    torch.set_num_threads(1)
+    cv2.setNumThreads(1)
+
+
+def validate(net, sources, device):
+    """Per size: real and generated scores; the selection score is the mean real IoU."""
+    row, real_ious = {}, []
+    for size, name in zip(data.VIEW_SIZES, SIZES):
+        gen = evaluate(net, sources.generated_views[size], device)
+        row[f"generated_iou_{name}"] = round(gen["iou"], 5)
+        if sources.real_val:
+            real = evaluate(net, sources.real_views[size], device)
+            real_ious.append(real["iou"])
+            for k in ("iou", "recall", "precision", "iou_legible"):
+                row[f"real_{k}_{name}"] = round(real[k], 5)
+        else:
+            real_ious.append(gen["iou"])
+    return row, float(np.mean(real_ious))
+
+
+def rng_states(device):
+    states = {"torch_rng": torch.get_rng_state()}
+    if device.startswith("cuda"):
+        states["cuda_rng"] = torch.cuda.get_rng_state()
+    return states
 
 
 def save(path, state):
@@ -83,68 +131,57 @@ def save(path, state):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--data", required=True, help="generated pairs (images/, masks/)")
+    ap.add_argument("--data", default="", help="generated pairs (images/, masks/)")
     ap.add_argument("--work", required=True, help="checkpoints, validation.csv")
-    ap.add_argument("--steps", type=int, default=16000)
+    ap.add_argument("--packed", default="", help="pack.py's folder instead of --data/--icdar*")
+    ap.add_argument("--steps", type=int, default=12000)
     ap.add_argument("--batch", type=int, default=8)
-    ap.add_argument("--mix", default="3,4,1",
+    ap.add_argument("--mix", default="2,5,1",
                     help="crops per batch from generated, ICDAR train, test_blurred (sum = batch); "
                          "a missing source's share goes to the generated pairs")
+    ap.add_argument("--crop", default=f"{data.TRAIN_W}x{data.TRAIN_H}", help="training crop WxH")
     ap.add_argument("--lr", type=float, default=1e-3)
     ap.add_argument("--weight-power", type=float, default=0.5)
     ap.add_argument("--validation", type=float, default=0.05, help="held-out generated fraction")
-    ap.add_argument("--validate-every", type=int, default=500)
+    ap.add_argument("--validate-every", type=int, default=1000)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--workers", type=int, default=0, help="processes preparing batches")
+    ap.add_argument("--device", default="cpu", help="cpu, or cuda where torch sees a GPU")
     ap.add_argument("--stop-at", type=int, default=0,
                     help="leave after the checkpoint at this step (a rerun goes on); 0: at --steps")
     ap.add_argument("--icdar-train", default="", help="ICDAR 2015 training folder (images/, gt/)")
     ap.add_argument("--icdar", default="", help="the shared data folder: test_blurred img_201..500")
     args = ap.parse_args()
+    if not args.data and not args.packed:
+        raise SystemExit("train.py: --data PAIRS or --packed DIR is needed")
+    crop = tuple(int(v) for v in args.crop.split("x"))
+    if len(crop) != 2 or crop[0] % 64 or crop[1] % 64:
+        raise SystemExit(f"train.py: --crop {args.crop} must be WxH, multiples of 64")
 
     torch.set_num_threads(args.threads)
     torch.manual_seed(args.seed)
-    np.random.seed(args.seed)
-    rng = random.Random(args.seed)
     os.makedirs(args.work, exist_ok=True)
-
-    pairs = data.load_pairs(args.data)
-    held = max(1, int(len(pairs) * args.validation))
-    generated, generated_val = pairs[:-held], pairs[-held:]  # the last views: other streets
-    generated_views = [data.whole_view(i, m) for i, m in generated_val]
-    icdar_train, real_views = [], []
-    if args.icdar_train:
-        if os.path.isdir(os.path.join(args.icdar_train, "images")):
-            train_ids, val_ids = data.icdar_split(data.icdar_ids(args.icdar_train))
-            icdar_train = data.load_icdar(args.icdar_train, train_ids)
-            real_views = data.load_icdar_views(args.icdar_train, val_ids)
-        else:
-            print(f"no ICDAR training photos in {args.icdar_train}", flush=True)
-    blurred = []
-    if args.icdar:
-        folder = os.path.join(args.icdar, "icdar2015", "test_blurred")
-        if os.path.isdir(folder):
-            ids = [i for i in data.icdar_ids(folder) if i > 100 + data.BLURRED_HELD_OUT]
-            blurred = data.load_icdar(folder, ids)
-        else:
-            print(f"no ICDAR test_blurred photos under {args.icdar}", flush=True)
+    sources = data.Sources(args.data, args.validation, args.icdar_train, args.icdar, args.packed)
     mix = [int(v) for v in args.mix.split(",")]
     if len(mix) != 3 or sum(mix) != args.batch:
         raise SystemExit(f"train.py: --mix {args.mix} must be three counts summing to --batch")
-    sources = [generated, icdar_train, blurred]
+    pools = [sources.generated, sources.icdar_train, sources.blurred]
     for k in (1, 2):
-        if not sources[k]:
+        if not pools[k]:
             mix[0], mix[k] = mix[0] + mix[k], 0
-    weights, freq = data.class_weights(list(zip(sources, mix)), args.weight_power)
-    weights = torch.tensor(weights, dtype=torch.float32)
-    print(f"training: {len(generated)} generated, {len(icdar_train)} ICDAR train, {len(blurred)} "
-          f"test_blurred; batch mix {mix}; validation: {len(real_views)} ICDAR photos, "
-          f"{len(generated_views)} generated; text fraction {freq[1]:.4f}; class weights "
-          f"{weights.numpy().round(3).tolist()}", flush=True)
+    weights, freq = data.class_weights(list(zip(pools, mix)), args.weight_power)
+    weights = torch.tensor(weights, dtype=torch.float32).to(args.device)
+    print(f"training: {len(pools[0])} generated, {len(pools[1])} ICDAR train, {len(pools[2])} "
+          f"test_blurred; batch mix {mix}, crops {crop[0]}x{crop[1]}; validation: "
+          f"{len(sources.real_val)} ICDAR photos, {len(sources.generated_val)} generated; text "
+          f"fraction {freq[1]:.4f}; class weights {weights.cpu().numpy().round(3).tolist()}; "
+          f"device {args.device}", flush=True)
 
     net = MiniNet(2)
     print(f"MiniNet: {count_parameters(net) / 1e6:.3f} M parameters, "
           f"{count_flops(net, 256, 512) / 1e9:.3f} GFLOPs at 512x256", flush=True)
+    net.to(args.device)
     optimizer = torch.optim.Adam(net.parameters(), lr=args.lr)
     schedule = torch.optim.lr_scheduler.LambdaLR(
         optimizer, lambda step: (1 - min(step, args.steps - 1) / args.steps) ** 0.9)
@@ -152,13 +189,13 @@ def main():
     latest, best_path = os.path.join(args.work, "latest.pt"), os.path.join(args.work, "best.pt")
     csv_path = os.path.join(args.work, "validation.csv")
     if os.path.exists(latest):
-        state = torch.load(latest)
+        state = torch.load(latest, map_location=args.device)
         net.load_state_dict(state["net"])
         optimizer.load_state_dict(state["optimizer"])
         schedule.load_state_dict(state["schedule"])
-        rng.setstate(state["rng"])
-        np.random.set_state(state["numpy_rng"])
-        torch.set_rng_state(state["torch_rng"])
+        torch.set_rng_state(state["torch_rng"].cpu())
+        if "cuda_rng" in state and args.device.startswith("cuda"):
+            torch.cuda.set_rng_state(state["cuda_rng"].cpu())
         step, best = state["step"], state["best"]
         print(f"resuming from step {step} (best validation IoU so far {best:.4f})", flush=True)
     rows = []
@@ -170,14 +207,17 @@ def main():
         writer.writeheader()
         writer.writerows(rows)
 
+    loader_options = {"prefetch_factor": 4, "worker_init_fn": one_thread_worker,
+                      "persistent_workers": True} if args.workers else {}
+    loader = torch.utils.data.DataLoader(
+        StepBatches(pools, mix, args.seed, crop), batch_size=None,
+        sampler=range(step + 1, args.steps + 1), num_workers=args.workers,
+        pin_memory=args.device.startswith("cuda"), **loader_options)
     started = interval_start = time.time()
     losses = []
     net.train()
-    while step < args.steps:
-        batch = [data.augment(*source[rng.randrange(len(source))], rng)
-                 for source, count in zip(sources, mix) for _ in range(count)]
-        x = torch.from_numpy(np.stack([b[0] for b in batch]))
-        y = torch.from_numpy(np.stack([b[1] for b in batch])).long()
+    for x, y in loader:
+        x, y = x.to(args.device, non_blocking=True), y.to(args.device, non_blocking=True)
         loss = F.cross_entropy(net(x), y, weight=weights, ignore_index=data.IGNORE)
         optimizer.zero_grad()
         loss.backward()
@@ -188,29 +228,22 @@ def main():
         if step % 50 == 0:
             print(f"step {step}/{args.steps} loss {np.mean(losses[-50:]):.4f} "
                   f"lr {schedule.get_last_lr()[0]:.2e} "
-                  f"{(time.time() - interval_start) / len(losses):.2f} s/step", flush=True)
+                  f"{(time.time() - interval_start) / len(losses):.3f} s/step", flush=True)
         if step % args.validate_every == 0 or step == args.steps:
             s_per_step = (time.time() - interval_start) / max(1, len(losses))
-            gen = evaluate(net, generated_views)
-            real = evaluate(net, real_views) if real_views else None
-            score = real["iou"] if real else gen["iou"]
+            row, score = validate(net, sources, args.device)
             improved = score > best
             best = max(best, score)
-            row = {"step": step, "loss": round(float(np.mean(losses)), 5),
-                   "lr": f"{schedule.get_last_lr()[0]:.3e}", "s_per_step": round(s_per_step, 3),
-                   "generated_iou": round(gen["iou"], 5), "best_real_iou": round(best, 5),
-                   "wall_s": round(time.time() - started, 1)}
-            if real:
-                row.update({"real_iou": round(real["iou"], 5),
-                            "real_recall": round(real["recall"], 5),
-                            "real_precision": round(real["precision"], 5),
-                            "real_iou_legible": round(real["iou_legible"], 5)})
-            print(f"validation at step {step}: real {real} generated {gen}"
-                  f"{' (best)' if improved else ''}", flush=True)
-            state = {"net": net.state_dict(), "optimizer": optimizer.state_dict(),
-                     "schedule": schedule.state_dict(), "step": step, "best": best,
-                     "validation": real or gen, "validation_generated": gen,
-                     "class_weights": weights.tolist(), "args": vars(args), **rng_states(rng)}
+            row.update({"step": step, "loss": round(float(np.mean(losses)), 5),
+                        "lr": f"{schedule.get_last_lr()[0]:.3e}", "s_per_step": round(s_per_step, 4),
+                        "score": round(score, 5), "best_score": round(best, 5),
+                        "wall_s": round(time.time() - started, 1)})
+            print(f"validation at step {step}: {row}{' (best)' if improved else ''}", flush=True)
+            state = {"net": {k: v.cpu() for k, v in net.state_dict().items()},
+                     "optimizer": optimizer.state_dict(), "schedule": schedule.state_dict(),
+                     "step": step, "best": best, "validation": row,
+                     "class_weights": weights.tolist(), "args": vars(args),
+                     **rng_states(args.device)}
             if improved:
                 save(best_path, state)
             save(latest, state)

@@ -67,6 +67,43 @@ class MiniNetTraining(unittest.TestCase):
         weights, freq = data.class_weights([([(image, mask)], 1)], 0.5)
         self.assertAlmostEqual(freq[1], (mask == 1).sum() / (mask != data.IGNORE).sum())
 
+    def test_a_step_batch_depends_on_the_seed_and_step_alone(self):
+        rng = np.random.default_rng(0)
+        pool = [(rng.integers(0, 255, (360, 640, 3), dtype=np.uint8),
+                 (rng.random((360, 640)) < 0.05).astype(np.uint8)) for _ in range(3)]
+        batches = train.StepBatches([pool, pool, []], [2, 1, 0], seed=4, crop=(128, 64))
+        x, y = batches[7]
+        self.assertEqual(tuple(x.shape), (3, 3, 64, 128))
+        self.assertEqual(tuple(y.shape), (3, 64, 128))
+        again_x, again_y = batches[7]
+        self.assertTrue(torch.equal(x, again_x) and torch.equal(y, again_y))
+        self.assertFalse(torch.equal(x, batches[8][0]))
+        loader = torch.utils.data.DataLoader(batches, batch_size=None, sampler=range(6, 9),
+                                             num_workers=2, worker_init_fn=train.one_thread_worker)
+        from_workers = list(loader)
+        self.assertTrue(torch.equal(from_workers[1][0], x))  # step 7, whichever worker drew it
+        other_seed = train.StepBatches([pool, pool, []], [2, 1, 0], seed=5, crop=(128, 64))
+        self.assertFalse(torch.equal(other_seed[7][0], x))
+
+    def test_packed_sources_train_on_the_same_pairs(self):
+        with tempfile.TemporaryDirectory() as work:
+            pairs, packed = os.path.join(work, "pairs"), os.path.join(work, "packed")
+            subprocess.run([KEYFLEET, "scenario", "training", SCENARIO, "--out", pairs,
+                            "--count", "6"], check=True, stdout=subprocess.DEVNULL)
+            subprocess.run([sys.executable, os.path.join(HERE, "..", "..", "models", "mininet",
+                                                         "pack.py"),
+                            "--data", pairs, "--out", packed, "--validation", "0.34",
+                            "--parts", "2"], check=True, stdout=subprocess.DEVNULL)
+            original = data.Sources(pairs, 0.34)
+            again = data.Sources("", 0.34, packed=packed)
+            self.assertEqual((len(original.generated), len(original.generated_val)), (4, 2))
+            self.assertEqual(len(again.generated), 4)  # parts 1 and 2, two pairs each
+            self.assertEqual(len(again.generated_val), 2)
+            for (image, mask), k in zip(again.generated, (0, 2, 1, 3)):  # part k takes k::2
+                self.assertTrue(np.array_equal(mask, original.generated[k][1]))
+                diff = np.abs(image.astype(int) - original.generated[k][0].astype(int)).mean()
+                self.assertLess(diff, 3.0)  # JPEG 90
+
     def test_a_short_run_lowers_the_loss(self):
         torch.set_num_threads(2)
         torch.manual_seed(1)
