@@ -123,3 +123,16 @@ TEST(ShippedMiniNet, ATruncatedCopyIsRefusedWithTheFileNamed) {
 
 }  // namespace
 }  // namespace keyfleet::vision
+
+namespace keyfleet::eval {
+
+// Table III's real validation split is the training recipe's (models/mininet/data.py: ids
+// divisible by 10 never train).
+TEST(SegmenterEval, IcdarValidationSplitIsTheIdsDivisibleByTen) {
+  for (const char* stem : {"img_10", "img_20", "img_100", "img_1000"})
+    EXPECT_TRUE(icdar_validation_id(stem)) << stem;
+  for (const char* stem : {"img_1", "img_11", "img_101", "img_", "img_1x0", "gt_img_10", "10"})
+    EXPECT_FALSE(icdar_validation_id(stem)) << stem;
+}
+
+}  // namespace keyfleet::eval

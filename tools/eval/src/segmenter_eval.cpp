@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string_view>
 
 #include "keyfleet/common/error.hpp"
 
@@ -35,11 +36,13 @@ struct Counts {
   }
 };
 
-std::vector<fs::path> images_in(const std::string& folder, std::size_t max_images) {
+std::vector<fs::path> images_in(const std::string& folder, std::size_t max_images,
+                                const StemFilter& keep = {}) {
   if (!fs::is_directory(folder)) throw StartupError("no image folder " + folder);
   std::vector<fs::path> files;
   for (const auto& entry : fs::directory_iterator(folder))
-    if (entry.path().extension() == ".jpg") files.push_back(entry.path());
+    if (entry.path().extension() == ".jpg" && (!keep || keep(entry.path().stem().string())))
+      files.push_back(entry.path());
   std::sort(files.begin(), files.end());
   if (max_images && files.size() > max_images) files.resize(max_images);
   return files;
@@ -68,10 +71,20 @@ SegmentationScores evaluate_on_pairs(vision::TextSegmenter& segmenter, const std
   return counts.scores();
 }
 
+bool icdar_validation_id(const std::string& stem) {
+  constexpr std::string_view prefix = "img_";
+  if (stem.size() <= prefix.size() || stem.compare(0, prefix.size(), prefix) != 0) return false;
+  const std::string digits = stem.substr(prefix.size());
+  if (!std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }))
+    return false;
+  return digits.back() == '0';
+}
+
 SegmentationScores evaluate_on_icdar(vision::TextSegmenter& segmenter, const std::string& images,
-                                     const std::string& ground_truth, std::size_t max_images) {
+                                     const std::string& ground_truth, std::size_t max_images,
+                                     const StemFilter& keep) {
   Counts counts;
-  for (const auto& path : images_in(images, max_images)) {
+  for (const auto& path : images_in(images, max_images, keep)) {
     const cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
     if (image.empty()) throw StartupError("unreadable image " + path.string());
     cv::Mat truth = cv::Mat::zeros(image.size(), CV_8UC1);

@@ -1,5 +1,6 @@
 #pragma once
 // Text-segmentation accuracy and speed, like Table III of Alonso et al. (ICRA 2019).
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -17,9 +18,15 @@ SegmentationScores evaluate_on_pairs(vision::TextSegmenter& segmenter, const std
                                      std::size_t max_images);
 
 // ICDAR 2015 photos with gt/gt_<name>.txt: word quadrilaterals filled as text ('###' too, as
-// the boxes-as-masks protocol of COCO-Text does). `images` is the folder of .jpg files.
+// the boxes-as-masks protocol of COCO-Text does). `images` is the folder of .jpg files; `keep`
+// (when given) picks photos by file stem ("img_10"), before max_images counts them.
+using StemFilter = std::function<bool(const std::string& stem)>;
 SegmentationScores evaluate_on_icdar(vision::TextSegmenter& segmenter, const std::string& images,
-                                     const std::string& ground_truth, std::size_t max_images);
+                                     const std::string& ground_truth, std::size_t max_images,
+                                     const StemFilter& keep = {});
+
+// The MiniNet recipe's validation split of ICDAR 2015 train: image ids divisible by 10.
+bool icdar_validation_id(const std::string& stem);
 
 // Median milliseconds of one forward pass on a frame at the segmenter's input size.
 double median_forward_ms(vision::TextSegmenter& segmenter, int repetitions);
