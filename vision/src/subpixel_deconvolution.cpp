@@ -1,0 +1,219 @@
+#include "subpixel_deconvolution.hpp"
+
+#include <opencv2/core/hal/intrin.hpp>
+
+#include <algorithm>
+
+#if defined(__GNUC__) && defined(__x86_64__)
+#include <immintrin.h>
+#define KEYFLEET_SUBPIXEL_X86 1
+#endif
+
+namespace keyfleet::vision {
+namespace {
+
+// Along one direction, output phase 0 (even) meets kernel tap 1 at input offset 0; phase 1
+// (odd) meets tap 2 at offset 0 and tap 0 at offset 1.
+struct Tap {
+  int offset, tap;
+};
+constexpr Tap kPhase0[] = {{0, 1}};
+constexpr Tap kPhase1[] = {{0, 2}, {1, 0}};
+
+int round_up(int value, int multiple) { return (value + multiple - 1) / multiple * multiple; }
+
+#ifdef KEYFLEET_SUBPIXEL_X86
+// rows x (vectors x 8 lanes) block of out = bias (or out) + sum over taps t and k of
+// a[t][k][row] * b[k plane + shift[t] + lane]. The loop over taps is unrolled (kTaps loops one
+// after the other), and so are the loops over rows and vectors (the pragmas: left to itself
+// GCC stores the accumulators to the stack on every step, a third of the time).
+template <int kRows, int kVectors, int kTaps>
+__attribute__((target("avx2,fma"))) void tile(const float* a, std::size_t a_tap_stride,
+                                              const float* b, const int* shifts, int depth,
+                                              std::size_t plane, const float* bias, float* out,
+                                              std::size_t out_stride) {
+  __m256 acc[kRows][kVectors];
+#pragma GCC unroll 16
+  for (int r = 0; r < kRows; ++r)
+#pragma GCC unroll 16
+    for (int v = 0; v < kVectors; ++v)
+      acc[r][v] = bias ? _mm256_set1_ps(bias[r]) : _mm256_loadu_ps(out + r * out_stride + 8 * v);
+#pragma GCC unroll 4
+  for (int t = 0; t < kTaps; ++t) {
+    const float* at = a + t * a_tap_stride;
+    const float* bt = b + shifts[t];
+    for (int k = 0; k < depth; ++k, at += kRows, bt += plane) {
+      __m256 bv[kVectors];
+#pragma GCC unroll 16
+      for (int v = 0; v < kVectors; ++v) bv[v] = _mm256_loadu_ps(bt + 8 * v);
+#pragma GCC unroll 16
+      for (int r = 0; r < kRows; ++r) {
+        const __m256 ar = _mm256_broadcast_ss(at + r);
+#pragma GCC unroll 16
+        for (int v = 0; v < kVectors; ++v) acc[r][v] = _mm256_fmadd_ps(ar, bv[v], acc[r][v]);
+      }
+    }
+  }
+#pragma GCC unroll 16
+  for (int r = 0; r < kRows; ++r)
+#pragma GCC unroll 16
+    for (int v = 0; v < kVectors; ++v) _mm256_storeu_ps(out + r * out_stride + 8 * v, acc[r][v]);
+}
+
+template <int kRows, int kVectors>
+void tile_for_taps(int taps, const float* a, std::size_t a_tap_stride, const float* b,
+                   const int* shifts, int depth, std::size_t plane, const float* bias, float* out,
+                   std::size_t out_stride) {
+  switch (taps) {
+    case 1:
+      tile<kRows, kVectors, 1>(a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride);
+      break;
+    case 2:
+      tile<kRows, kVectors, 2>(a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride);
+      break;
+    default:
+      tile<kRows, kVectors, 4>(a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride);
+  }
+}
+#endif
+
+// Rows of output channels per block and 8-float vectors per block of columns: 12 accumulators.
+int rows_per_block(int channels) {
+  if (channels % 6 == 0) return 6;
+  return channels <= 2 ? 2 : 4;
+}
+
+}  // namespace
+
+bool SubpixelDeconvolution::supported() {
+#ifdef KEYFLEET_SUBPIXEL_X86
+  return cv::checkHardwareSupport(CV_CPU_AVX2) && cv::checkHardwareSupport(CV_CPU_FMA3);
+#else
+  return false;
+#endif
+}
+
+SubpixelDeconvolution::SubpixelDeconvolution(const cv::Mat& weights, const cv::Mat& bias)
+    : cin_(weights.size[0]), cout_(weights.size[1]) {
+  CV_Assert(weights.dims == 4 && weights.type() == CV_32F && weights.isContinuous() &&
+            weights.size[2] == 3 && weights.size[3] == 3);
+  CV_Assert(bias.empty() || (bias.type() == CV_32F && int(bias.total()) == cout_));
+  rows_per_block_ = rows_per_block(cout_);
+  lanes_per_block_ = 8 * (12 / rows_per_block_);
+  row_blocks_ = (cout_ + rows_per_block_ - 1) / rows_per_block_;
+  bias_.assign(std::size_t(row_blocks_) * rows_per_block_, 0.f);
+  for (int c = 0; c < cout_ && !bias.empty(); ++c) bias_[c] = bias.ptr<float>()[c];
+
+  const float* w = weights.ptr<float>();  // [cin][cout][3][3]
+  for (int a = 0; a < 2; ++a)
+    for (int b = 0; b < 2; ++b) {
+      Phase& phase = phases_[a * 2 + b];
+      const Tap* rows = a ? kPhase1 : kPhase0;
+      const Tap* cols = b ? kPhase1 : kPhase0;
+      const int row_taps = a ? 2 : 1, col_taps = b ? 2 : 1;
+      phase.taps = row_taps * col_taps;
+      for (int t = 0; t < phase.taps; ++t) {
+        phase.shift_rows[t] = rows[t / col_taps].offset;
+        phase.shift_cols[t] = cols[t % col_taps].offset;
+      }
+      const int block = rows_per_block_;
+      phase.packed.assign(std::size_t(row_blocks_) * phase.taps * cin_ * block, 0.f);
+      for (int co = 0; co < cout_; ++co)
+        for (int t = 0; t < phase.taps; ++t)
+          for (int ci = 0; ci < cin_; ++ci) {
+            const int u = rows[t / col_taps].tap, v = cols[t % col_taps].tap;
+            phase.packed[((std::size_t(co / block) * phase.taps + t) * cin_ + ci) * block +
+                         co % block] = w[((std::size_t(ci) * cout_ + co) * 3 + u) * 3 + v];
+          }
+    }
+}
+
+void SubpixelDeconvolution::multiply(const Phase& phase, int block_begin, int block_end,
+                                     float* out) const {
+#ifdef KEYFLEET_SUBPIXEL_X86
+  // Input channels in chunks whose columns of a block (all taps) stay within about 16 KB (L1).
+  const int most = std::max(8, 4096 / (phase.taps * lanes_per_block_));
+  const int chunks = (cin_ + most - 1) / most, depth = (cin_ + chunks - 1) / chunks;
+  int shifts[4];
+  for (int t = 0; t < phase.taps; ++t)
+    shifts[t] = phase.shift_rows[t] * padded_width_ + phase.shift_cols[t];
+  const int rows = rows_per_block_;
+  const std::size_t tap_stride = std::size_t(cin_) * rows;
+  for (int c0 = 0; c0 < cin_; c0 += depth) {
+    const int k = std::min(depth, cin_ - c0);
+    for (int block = block_begin; block < block_end; ++block) {
+      const int n0 = block * lanes_per_block_;
+      const float* b = padded_.data() + c0 * plane_ + n0;
+      for (int rb = 0; rb < row_blocks_; ++rb) {
+        const float* a = phase.packed.data() + (std::size_t(rb) * phase.taps * cin_ + c0) * rows;
+        const float* bias = c0 == 0 ? bias_.data() + rb * rows : nullptr;
+        float* o = out + std::size_t(rb) * rows * columns_ + n0;
+        const int taps = phase.taps;
+        switch (rows) {
+          case 6:
+            tile_for_taps<6, 2>(taps, a, tap_stride, b, shifts, k, plane_, bias, o, columns_);
+            break;
+          case 4:
+            tile_for_taps<4, 3>(taps, a, tap_stride, b, shifts, k, plane_, bias, o, columns_);
+            break;
+          default:
+            tile_for_taps<2, 6>(taps, a, tap_stride, b, shifts, k, plane_, bias, o, columns_);
+        }
+      }
+    }
+  }
+#else
+  (void)phase, (void)block_begin, (void)block_end, (void)out;
+  CV_Error(cv::Error::StsNotImplemented, "SubpixelDeconvolution needs x86-64 with AVX2");
+#endif
+}
+
+void SubpixelDeconvolution::run(const float* src, int h, int w, float* dst,
+                                const cv::dnn::ActivationLayer* activation) {
+  // Each plane gets a zero column and a zero row after it (what the taps at offset 1 read past
+  // the input's edge) and the columns a last block reads beyond that; products are computed on
+  // the padded width (the extra column's results are dropped).
+  padded_width_ = w + 1;
+  columns_ = round_up(h * padded_width_, lanes_per_block_);
+  plane_ = std::size_t(round_up(columns_ + padded_width_ + 1, 8));
+  padded_.assign(std::size_t(cin_) * plane_, 0.f);
+  for (int c = 0; c < cin_; ++c)
+    for (int y = 0; y < h; ++y)
+      std::copy_n(src + (std::size_t(c) * h + y) * w, w,
+                  padded_.data() + c * plane_ + std::size_t(y) * padded_width_);
+  const std::size_t phase_size = std::size_t(row_blocks_) * rows_per_block_ * columns_;
+  products_.resize(4 * phase_size);
+  cv::parallel_for_(cv::Range(0, columns_ / lanes_per_block_), [&](const cv::Range& blocks) {
+    for (int p = 0; p < 4; ++p)
+      multiply(phases_[p], blocks.start, blocks.end, products_.data() + p * phase_size);
+  });
+
+  // Interleave the phases: output row 2y + a takes phases (a, 0) and (a, 1) in turn.
+  const std::size_t out_plane = std::size_t(4) * h * w;
+  cv::parallel_for_(cv::Range(0, cout_), [&](const cv::Range& channels) {
+    for (int c = channels.start; c < channels.end; ++c) {
+      float* plane = dst + c * out_plane;
+      for (int y = 0; y < h; ++y)
+        for (int a = 0; a < 2; ++a) {
+          const std::size_t at = std::size_t(c) * columns_ + std::size_t(y) * padded_width_;
+          const float* even = products_.data() + (2 * a) * phase_size + at;
+          const float* odd = products_.data() + (2 * a + 1) * phase_size + at;
+          float* row = plane + std::size_t(2 * y + a) * 2 * w;
+          int x = 0;
+          for (; x + 4 <= w; x += 4) {
+            cv::v_float32x4 lo, hi;
+            cv::v_zip(cv::v_load(even + x), cv::v_load(odd + x), lo, hi);
+            cv::v_store(row + 2 * x, lo);
+            cv::v_store(row + 2 * x + 4, hi);
+          }
+          for (; x < w; ++x) {
+            row[2 * x] = even[x];
+            row[2 * x + 1] = odd[x];
+          }
+        }
+      if (activation) activation->forwardSlice(plane, plane, int(out_plane), out_plane, c, c + 1);
+    }
+  });
+}
+
+}  // namespace keyfleet::vision
