@@ -1,7 +1,6 @@
 // The text segmenter's forward pass (blob, network, argmax) on one frame, per choice of
-// layers (OpenCV's, the vectorised SELU, SELU + depthwise, SELU + depthwise + sub-pixel
-// transposed convolution: the default), thread count and input size. Prints figures; never
-// pass/fail.
+// layers (OpenCV's, the vectorised SELU, SELU + depthwise, all stand-ins: the default), thread
+// count and input size. Prints figures; never pass/fail.
 //   build/bin/bench_segmenter [--benchmark_repetitions=5 --benchmark_report_aggregates_only=true]
 // KEYFLEET_SEGMENTER_MODEL=path.onnx times another export (default: the shipped MiniNet).
 #include <benchmark/benchmark.h>
@@ -21,10 +20,11 @@ std::string model() {
   return vision::locate_model(env && *env ? env : "mininet_text.onnx", "segmenter model");
 }
 
-// Args: layers (0 = OpenCV's, 1 = vectorised SELU, 2 = SELU + depthwise, 3 = all three), threads,
+// Args: layers (0 = OpenCV's, 1 = vectorised SELU, 2 = SELU + depthwise, 3 = all), threads,
 // input height (width 512).
 void BM_Segment(benchmark::State& state) {
-  const vision::DnnLayers layers{state.range(0) >= 1, state.range(0) >= 2, state.range(0) >= 3};
+  const vision::DnnLayers layers{state.range(0) >= 1, state.range(0) >= 2, state.range(0) >= 3,
+                                 state.range(0) >= 3};
   const int threads = int(state.range(1));
   const cv::Size size(512, int(state.range(2)));
   vision::DnnTextSegmenter net(model(), threads, size, layers);

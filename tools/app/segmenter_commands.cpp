@@ -54,9 +54,9 @@ struct Variant {
   vision::DnnLayers layers;
 };
 
-// Each model with OpenCV's layers, with the vectorised SELU only, with SELU and depthwise, and
-// with all three stand-ins (the default), timed taking turns so that a noisy machine hits them
-// alike.
+// Each model with OpenCV's layers, with the SELU and depthwise stand-ins (the default until the
+// matrix-product ones), and with all stand-ins (the default), timed taking turns so that a noisy
+// machine hits them alike.
 void print_variant_timings(const std::vector<Variant>& variants, const std::vector<cv::Size>& sizes,
                            int repetitions) {
   std::printf("\nms per forward pass (median of %d, the variants taking turns)\n", repetitions);
@@ -155,8 +155,8 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
     if (i) std::printf("compare %zu: %s\n", i, path.c_str());
     const std::string name = i ? "compare " + std::to_string(i) : "model";
     variants.push_back({path, name + ", OpenCV layers", vision::DnnLayers::opencv()});
-    variants.push_back({path, name + ", vectorised SELU", vision::DnnLayers{true, false, false}});
-    variants.push_back({path, name + ", SELU + depthwise", vision::DnnLayers{true, true, false}});
+    variants.push_back(
+        {path, name + ", SELU + depthwise", vision::DnnLayers{true, true, false, false}});
     variants.push_back({path, name + ", all stand-ins", vision::DnnLayers{}});
   }
   print_variant_timings(variants, sizes, o.repetitions);

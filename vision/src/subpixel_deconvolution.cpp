@@ -1,13 +1,10 @@
 #include "subpixel_deconvolution.hpp"
 
+#include "avx2_product.hpp"
+
 #include <opencv2/core/hal/intrin.hpp>
 
 #include <algorithm>
-
-#if defined(__GNUC__) && defined(__x86_64__)
-#include <immintrin.h>
-#define KEYFLEET_SUBPIXEL_X86 1
-#endif
 
 namespace keyfleet::vision {
 namespace {
@@ -22,84 +19,18 @@ constexpr Tap kPhase1[] = {{0, 2}, {1, 0}};
 
 int round_up(int value, int multiple) { return (value + multiple - 1) / multiple * multiple; }
 
-#ifdef KEYFLEET_SUBPIXEL_X86
-// rows x (vectors x 8 lanes) block of out = bias (or out) + sum over taps t and k of
-// a[t][k][row] * b[k plane + shift[t] + lane]. The loop over taps is unrolled (kTaps loops one
-// after the other), and so are the loops over rows and vectors (the pragmas: left to itself
-// GCC stores the accumulators to the stack on every step, a third of the time).
-template <int kRows, int kVectors, int kTaps>
-__attribute__((target("avx2,fma"))) void tile(const float* a, std::size_t a_tap_stride,
-                                              const float* b, const int* shifts, int depth,
-                                              std::size_t plane, const float* bias, float* out,
-                                              std::size_t out_stride) {
-  __m256 acc[kRows][kVectors];
-#pragma GCC unroll 16
-  for (int r = 0; r < kRows; ++r)
-#pragma GCC unroll 16
-    for (int v = 0; v < kVectors; ++v)
-      acc[r][v] = bias ? _mm256_set1_ps(bias[r]) : _mm256_loadu_ps(out + r * out_stride + 8 * v);
-#pragma GCC unroll 4
-  for (int t = 0; t < kTaps; ++t) {
-    const float* at = a + t * a_tap_stride;
-    const float* bt = b + shifts[t];
-    for (int k = 0; k < depth; ++k, at += kRows, bt += plane) {
-      __m256 bv[kVectors];
-#pragma GCC unroll 16
-      for (int v = 0; v < kVectors; ++v) bv[v] = _mm256_loadu_ps(bt + 8 * v);
-#pragma GCC unroll 16
-      for (int r = 0; r < kRows; ++r) {
-        const __m256 ar = _mm256_broadcast_ss(at + r);
-#pragma GCC unroll 16
-        for (int v = 0; v < kVectors; ++v) acc[r][v] = _mm256_fmadd_ps(ar, bv[v], acc[r][v]);
-      }
-    }
-  }
-#pragma GCC unroll 16
-  for (int r = 0; r < kRows; ++r)
-#pragma GCC unroll 16
-    for (int v = 0; v < kVectors; ++v) _mm256_storeu_ps(out + r * out_stride + 8 * v, acc[r][v]);
-}
-
-template <int kRows, int kVectors>
-void tile_for_taps(int taps, const float* a, std::size_t a_tap_stride, const float* b,
-                   const int* shifts, int depth, std::size_t plane, const float* bias, float* out,
-                   std::size_t out_stride) {
-  switch (taps) {
-    case 1:
-      tile<kRows, kVectors, 1>(a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride);
-      break;
-    case 2:
-      tile<kRows, kVectors, 2>(a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride);
-      break;
-    default:
-      tile<kRows, kVectors, 4>(a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride);
-  }
-}
-#endif
-
-// Rows of output channels per block and 8-float vectors per block of columns: 12 accumulators.
-int rows_per_block(int channels) {
-  if (channels % 6 == 0) return 6;
-  return channels <= 2 ? 2 : 4;
-}
-
 }  // namespace
 
-bool SubpixelDeconvolution::supported() {
-#ifdef KEYFLEET_SUBPIXEL_X86
-  return cv::checkHardwareSupport(CV_CPU_AVX2) && cv::checkHardwareSupport(CV_CPU_FMA3);
-#else
-  return false;
-#endif
-}
+bool SubpixelDeconvolution::supported() { return product_supported(); }
 
 SubpixelDeconvolution::SubpixelDeconvolution(const cv::Mat& weights, const cv::Mat& bias)
     : cin_(weights.size[0]), cout_(weights.size[1]) {
   CV_Assert(weights.dims == 4 && weights.type() == CV_32F && weights.isContinuous() &&
             weights.size[2] == 3 && weights.size[3] == 3);
   CV_Assert(bias.empty() || (bias.type() == CV_32F && int(bias.total()) == cout_));
-  rows_per_block_ = rows_per_block(cout_);
-  lanes_per_block_ = 8 * (12 / rows_per_block_);
+  const ProductBlock block = ProductBlock::for_rows(cout_);
+  rows_per_block_ = block.rows;
+  lanes_per_block_ = block.columns;
   row_blocks_ = (cout_ + rows_per_block_ - 1) / rows_per_block_;
   bias_.assign(std::size_t(row_blocks_) * rows_per_block_, 0.f);
   for (int c = 0; c < cout_ && !bias.empty(); ++c) bias_[c] = bias.ptr<float>()[c];
@@ -130,7 +61,6 @@ SubpixelDeconvolution::SubpixelDeconvolution(const cv::Mat& weights, const cv::M
 
 void SubpixelDeconvolution::multiply(const Phase& phase, int block_begin, int block_end,
                                      float* out) const {
-#ifdef KEYFLEET_SUBPIXEL_X86
   // Input channels in chunks whose columns of a block (all taps) stay within about 16 KB (L1).
   const int most = std::max(8, 4096 / (phase.taps * lanes_per_block_));
   const int chunks = (cin_ + most - 1) / most, depth = (cin_ + chunks - 1) / chunks;
@@ -148,24 +78,11 @@ void SubpixelDeconvolution::multiply(const Phase& phase, int block_begin, int bl
         const float* a = phase.packed.data() + (std::size_t(rb) * phase.taps * cin_ + c0) * rows;
         const float* bias = c0 == 0 ? bias_.data() + rb * rows : nullptr;
         float* o = out + std::size_t(rb) * rows * columns_ + n0;
-        const int taps = phase.taps;
-        switch (rows) {
-          case 6:
-            tile_for_taps<6, 2>(taps, a, tap_stride, b, shifts, k, plane_, bias, o, columns_);
-            break;
-          case 4:
-            tile_for_taps<4, 3>(taps, a, tap_stride, b, shifts, k, plane_, bias, o, columns_);
-            break;
-          default:
-            tile_for_taps<2, 6>(taps, a, tap_stride, b, shifts, k, plane_, bias, o, columns_);
-        }
+        product_block({rows, lanes_per_block_}, phase.taps, a, tap_stride, b, shifts, k, plane_,
+                      bias, o, columns_);
       }
     }
   }
-#else
-  (void)phase, (void)block_begin, (void)block_end, (void)out;
-  CV_Error(cv::Error::StsNotImplemented, "SubpixelDeconvolution needs x86-64 with AVX2");
-#endif
 }
 
 void SubpixelDeconvolution::run(const float* src, int h, int w, float* dst,

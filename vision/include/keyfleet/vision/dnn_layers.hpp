@@ -1,15 +1,20 @@
 #pragma once
-// Faster stand-ins for three OpenCV 4.6 DNN layers, computing the same functions to float rounding:
+// Faster stand-ins for OpenCV 4.6 DNN layers, computing the same functions to float rounding:
 // - SELU: OpenCV computes it one element at a time with std::exp (about 10 ns an element here, a
-//   quarter of MiniNet's forward pass on one thread); this one uses cv::hal::exp32f (about 1 ns).
-//   It derives from ActivationLayer, so OpenCV still fuses it into the convolution or sum before.
+//   quarter of MiniNet's forward pass on one thread); this one takes about 0.4 ns (AVX2 where the
+//   CPU has it, else cv::hal::exp32f, about 1 ns). It derives from ActivationLayer, so OpenCV
+//   still fuses it into the layer before when that layer takes an activation.
 // - stride-1 depthwise convolution: OpenCV's costs about a microsecond a channel on the narrow
 //   planes of MiniNet's inner layers (16, 8 and 4 columns at 512x256) and more when dilated; this
-//   one runs along the rows with SIMD and skips zero taps. Other convolutions stay OpenCV's.
+//   one runs along the rows with SIMD and skips zero taps.
 // - transposed 3x3 convolution, stride 2, padding 1, output padding 1 (MiniNet's upsampling):
 //   OpenCV multiplies by all nine taps into a column buffer, then scatters and sums it (col2im);
-//   this one computes each of the four output phases as one matrix product with AVX2 (x86-64
-//   CPUs without AVX2 and FMA keep OpenCV's layer). Other transposed convolutions stay OpenCV's.
+//   this one computes each of the four output phases as one matrix product over the input read
+//   in place (no zero taps, no scatter).
+// - 1x1 convolution (stride 1, one group): the same matrix product, the activation applied
+//   while the columns are in cache.
+// The last two need x86-64 with AVX2 and FMA (elsewhere OpenCV's layers stay); any other
+// convolution or transposed convolution stays OpenCV's.
 #include <opencv2/dnn.hpp>
 
 #include <mutex>
@@ -23,12 +28,13 @@ struct DnnLayers {
   bool vectorised_selu = true;
   bool depthwise = true;
   bool subpixel_deconvolution = true;
-  static DnnLayers opencv() { return {false, false, false}; }
-  bool any() const { return vectorised_selu || depthwise || subpixel_deconvolution; }
+  bool pointwise = true;
+  static DnnLayers opencv() { return {false, false, false, false}; }
+  bool any() const { return vectorised_selu || depthwise || subpixel_deconvolution || pointwise; }
 };
 
-// Whether this CPU runs the sub-pixel transposed convolution (x86-64 with AVX2 and FMA).
-bool subpixel_deconvolution_supported();
+// Whether this CPU runs the transposed and 1x1 convolution stand-ins (x86-64 with AVX2 and FMA).
+bool matrix_product_layers_supported();
 
 // selu(x) = gamma * (max(x, 0) + alpha * (exp(min(x, 0)) - 1)), for n floats (in place allowed).
 void selu_vectorised(const float* src, float* dst, int n, float alpha, float gamma);

@@ -1,7 +1,8 @@
-// keyfleet's sub-pixel transposed convolution (dnn_layers.hpp) computes what OpenCV's layer does
-// for the geometry it takes over (3x3, stride 2, padding 1, output padding 1), with and without
-// bias and a fused activation, leaves other geometries to OpenCV, and the shipped MiniNet gives
-// the same masks with it in a batch as one frame at a time.
+// keyfleet's matrix-product stand-ins (dnn_layers.hpp) compute what OpenCV's layers do: the
+// sub-pixel transposed convolution for the geometry it takes over (3x3, stride 2, padding 1,
+// output padding 1) and the 1x1 convolution, with and without bias and a fused activation; other
+// geometries stay OpenCV's, and the shipped MiniNet gives the same masks in a batch as one frame
+// at a time.
 #include <gtest/gtest.h>
 
 #include <opencv2/dnn/shape_utils.hpp>
@@ -60,7 +61,7 @@ struct Shape {
 };
 
 TEST(SubpixelDeconvolution, MatchesOpenCvsTransposedConvolution) {
-  if (!subpixel_deconvolution_supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layer stays";
+  if (!matrix_product_layers_supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layer stays";
   // Output channels in blocks of 6, of 4 with a partial block, of 2 and 1; widths below, at and
   // above a vector; one-pixel planes.
   const std::vector<Shape> shapes = {{5, 6, 3, 7, true, false},    {7, 4, 4, 9, false, true},
@@ -101,6 +102,62 @@ TEST(SubpixelDeconvolution, LeavesOtherGeometriesToOpenCv) {
     EXPECT_EQ(cv::norm(got, deconvolve(input, weights, cv::Mat(), g, false, DnnLayers::opencv()),
                        cv::NORM_INF),
               0.0);
+  }
+}
+
+// One 1x1 convolution (then a SELU when `selu`) through OpenCV DNN, with or without keyfleet's
+// stand-ins; `type`: the class of layer that ran the convolution.
+cv::Mat convolve_1x1(const cv::Mat& input, const cv::Mat& weights, const cv::Mat& bias, bool selu,
+                     DnnLayers layers, std::string* type = nullptr) {
+  cv::dnn::LayerParams params;
+  params.type = "Convolution";
+  params.name = "conv";
+  params.blobs = {weights};
+  if (!bias.empty()) params.blobs.push_back(bias);
+  params.set("bias_term", !bias.empty());
+  params.set("num_output", weights.size[0]);
+  const int kernel[] = {1, 1};
+  params.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
+  std::optional<DnnLayersScope> scope;
+  if (layers.any()) scope.emplace(layers);
+  cv::dnn::Net net;
+  net.addLayerToPrev(params.name, params.type, params);
+  if (selu) {
+    cv::dnn::LayerParams activation;
+    activation.type = "Selu";
+    activation.name = "selu";
+    net.addLayerToPrev(activation.name, activation.type, activation);
+  }
+  net.setInput(input);
+  const cv::Mat out = net.forward().clone();
+  if (type) *type = net.getLayer(params.name)->type;
+  return out;
+}
+
+TEST(PointwiseStandIn, MatchesOpenCvsConvolution) {
+  if (!matrix_product_layers_supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layer stays";
+  // Output channels in whole blocks of 6 and 4 and in partial ones; pixel counts that fill whole
+  // column blocks (16, 24, 48) and that do not.
+  const std::vector<Shape> shapes = {{3, 12, 8, 16, true, true},  {12, 24, 4, 12, false, false},
+                                     {5, 4, 3, 8, true, false},   {7, 2, 6, 8, false, true},
+                                     {9, 5, 3, 7, true, true},    {386, 386, 4, 8, true, false},
+                                     {300, 7, 1, 1, false, true}, {28, 1, 5, 11, true, false}};
+  cv::RNG rng(14);
+  for (const Shape& s : shapes) {
+    cv::Mat input({2, s.cin, s.h, s.w}, CV_32F), weights({s.cout, s.cin, 1, 1}, CV_32F), bias;
+    rng.fill(input, cv::RNG::UNIFORM, -2, 2);
+    rng.fill(weights, cv::RNG::UNIFORM, -1, 1);
+    if (s.bias) {
+      bias.create(1, s.cout, CV_32F);
+      rng.fill(bias, cv::RNG::UNIFORM, -1, 1);
+    }
+    const cv::Mat expected = convolve_1x1(input, weights, bias, s.selu, DnnLayers::opencv());
+    std::string type;
+    const cv::Mat got = convolve_1x1(input, weights, bias, s.selu, DnnLayers{}, &type);
+    EXPECT_EQ(type, "KeyfleetPointwise");
+    ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
+    EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * s.cin * 2 + 1e-6)
+        << s.cin << " -> " << s.cout << ", " << s.w << "x" << s.h;
   }
 }
 
