@@ -75,9 +75,15 @@ bool product_supported() {
 #endif
 }
 
-ProductBlock ProductBlock::for_rows(int channels) {
-  const int rows = channels % 6 == 0 ? 6 : channels <= 2 ? 2 : 4;
-  return {rows, 96 / rows};
+ProductBlock ProductBlock::least_padding(int rows, int columns) {
+  ProductBlock best{6, 16};
+  long least = -1;
+  for (const ProductBlock block : {ProductBlock{6, 16}, ProductBlock{4, 24}, ProductBlock{2, 48}}) {
+    const long padded = long((rows + block.rows - 1) / block.rows * block.rows) *
+                        ((columns + block.columns - 1) / block.columns * block.columns);
+    if (least < 0 || padded < least) best = block, least = padded;
+  }
+  return best;
 }
 
 void product_block(ProductBlock block, int taps, const float* a, std::size_t a_tap_stride,

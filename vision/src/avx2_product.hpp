@@ -13,9 +13,10 @@ namespace keyfleet::vision {
 bool product_supported();  // x86-64 with AVX2 and FMA
 
 struct ProductBlock {
-  int rows;     // output rows per block: 6, 4 or 2 (rows_for(channels))
+  int rows;     // output rows per block: 6, 4 or 2
   int columns;  // columns per block: 96 / rows (12 accumulators of 8 floats)
-  static ProductBlock for_rows(int channels);
+  // The shape that pads `rows` x `columns` the least (ties: more rows, fewer loads per product).
+  static ProductBlock least_padding(int rows, int columns);
 };
 
 // taps: 1, 2 or 4; shifts[taps]. Reads columns [0, block.columns) of b at each shift.

@@ -6,15 +6,19 @@
 namespace keyfleet::vision {
 
 PointwiseConvolution::PointwiseConvolution(const cv::Mat& weights, const cv::Mat& bias)
-    : cin_(weights.size[1]), cout_(weights.size[0]), block_(ProductBlock::for_rows(cout_)) {
+    : cin_(weights.size[1]), cout_(weights.size[0]), weights_(weights) {
   CV_Assert(weights.dims == 4 && weights.type() == CV_32F && weights.isContinuous() &&
             weights.size[2] == 1 && weights.size[3] == 1);
   CV_Assert(bias.empty() || (bias.type() == CV_32F && int(bias.total()) == cout_));
-  row_blocks_ = (cout_ + block_.rows - 1) / block_.rows;
-  bias_.assign(std::size_t(row_blocks_) * block_.rows, 0.f);
+  bias_.assign(std::size_t((cout_ + 11) / 12 * 12), 0.f);
   for (int c = 0; c < cout_ && !bias.empty(); ++c) bias_[c] = bias.ptr<float>()[c];
+}
+
+void PointwiseConvolution::pack(ProductBlock block) {
+  block_ = block;
+  row_blocks_ = (cout_ + block_.rows - 1) / block_.rows;
   packed_.assign(std::size_t(row_blocks_) * cin_ * block_.rows, 0.f);
-  const float* w = weights.ptr<float>();  // [cout][cin]
+  const float* w = weights_.ptr<float>();  // [cout][cin]
   for (int co = 0; co < cout_; ++co)
     for (int ci = 0; ci < cin_; ++ci)
       packed_[(std::size_t(co / block_.rows) * cin_ + ci) * block_.rows + co % block_.rows] =
@@ -23,6 +27,8 @@ PointwiseConvolution::PointwiseConvolution(const cv::Mat& weights, const cv::Mat
 
 void PointwiseConvolution::run(const float* src, int pixels, float* dst,
                                const cv::dnn::ActivationLayer* activation) {
+  const ProductBlock block = ProductBlock::least_padding(cout_, pixels);
+  if (block.rows != block_.rows) pack(block);
   const int width = block_.columns;
   const int columns = (pixels + width - 1) / width * width;
   // The input in place when its planes are whole blocks, else copied with zero columns after.

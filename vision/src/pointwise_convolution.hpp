@@ -24,10 +24,15 @@ class PointwiseConvolution {
   void run(const float* src, int pixels, float* dst, const cv::dnn::ActivationLayer* activation);
 
  private:
-  int cin_, cout_, row_blocks_;
-  ProductBlock block_;
+  void pack(ProductBlock block);  // the weights for blocks of that shape
+
+  int cin_, cout_;
+  cv::Mat weights_;
+  std::vector<float> bias_;  // padded to whole row blocks of any shape
+  // The block shape the weights are packed for (chosen per input size: the least padding).
+  ProductBlock block_{0, 0};
+  int row_blocks_ = 0;
   std::vector<float> packed_;  // [row block][input channel][block_.rows]
-  std::vector<float> bias_;    // padded to whole row blocks
   // Used when the columns or rows do not fill whole blocks: the input with zero columns after
   // each plane, and the products before they go to dst.
   std::vector<float> padded_, products_;

@@ -1,7 +1,5 @@
 #include "subpixel_deconvolution.hpp"
 
-#include "avx2_product.hpp"
-
 #include <opencv2/core/hal/intrin.hpp>
 
 #include <algorithm>
@@ -24,39 +22,43 @@ int round_up(int value, int multiple) { return (value + multiple - 1) / multiple
 bool SubpixelDeconvolution::supported() { return product_supported(); }
 
 SubpixelDeconvolution::SubpixelDeconvolution(const cv::Mat& weights, const cv::Mat& bias)
-    : cin_(weights.size[0]), cout_(weights.size[1]) {
+    : cin_(weights.size[0]), cout_(weights.size[1]), weights_(weights) {
   CV_Assert(weights.dims == 4 && weights.type() == CV_32F && weights.isContinuous() &&
             weights.size[2] == 3 && weights.size[3] == 3);
   CV_Assert(bias.empty() || (bias.type() == CV_32F && int(bias.total()) == cout_));
-  const ProductBlock block = ProductBlock::for_rows(cout_);
-  rows_per_block_ = block.rows;
-  lanes_per_block_ = block.columns;
-  row_blocks_ = (cout_ + rows_per_block_ - 1) / rows_per_block_;
-  bias_.assign(std::size_t(row_blocks_) * rows_per_block_, 0.f);
+  bias_.assign(std::size_t(round_up(cout_, 12)), 0.f);
   for (int c = 0; c < cout_ && !bias.empty(); ++c) bias_[c] = bias.ptr<float>()[c];
-
-  const float* w = weights.ptr<float>();  // [cin][cout][3][3]
   for (int a = 0; a < 2; ++a)
     for (int b = 0; b < 2; ++b) {
       Phase& phase = phases_[a * 2 + b];
       const Tap* rows = a ? kPhase1 : kPhase0;
       const Tap* cols = b ? kPhase1 : kPhase0;
-      const int row_taps = a ? 2 : 1, col_taps = b ? 2 : 1;
-      phase.taps = row_taps * col_taps;
+      const int col_taps = b ? 2 : 1;
+      phase.taps = (a ? 2 : 1) * col_taps;
       for (int t = 0; t < phase.taps; ++t) {
         phase.shift_rows[t] = rows[t / col_taps].offset;
         phase.shift_cols[t] = cols[t % col_taps].offset;
+        phase.kernel_rows[t] = rows[t / col_taps].tap;
+        phase.kernel_cols[t] = cols[t % col_taps].tap;
       }
-      const int block = rows_per_block_;
-      phase.packed.assign(std::size_t(row_blocks_) * phase.taps * cin_ * block, 0.f);
-      for (int co = 0; co < cout_; ++co)
-        for (int t = 0; t < phase.taps; ++t)
-          for (int ci = 0; ci < cin_; ++ci) {
-            const int u = rows[t / col_taps].tap, v = cols[t % col_taps].tap;
-            phase.packed[((std::size_t(co / block) * phase.taps + t) * cin_ + ci) * block +
-                         co % block] = w[((std::size_t(ci) * cout_ + co) * 3 + u) * 3 + v];
-          }
     }
+}
+
+void SubpixelDeconvolution::pack(ProductBlock block) {
+  rows_per_block_ = block.rows;
+  lanes_per_block_ = block.columns;
+  row_blocks_ = (cout_ + block.rows - 1) / block.rows;
+  const float* w = weights_.ptr<float>();  // [cin][cout][3][3]
+  for (Phase& phase : phases_) {
+    phase.packed.assign(std::size_t(row_blocks_) * phase.taps * cin_ * block.rows, 0.f);
+    for (int co = 0; co < cout_; ++co)
+      for (int t = 0; t < phase.taps; ++t)
+        for (int ci = 0; ci < cin_; ++ci)
+          phase.packed[((std::size_t(co / block.rows) * phase.taps + t) * cin_ + ci) * block.rows +
+                       co % block.rows] =
+              w[((std::size_t(ci) * cout_ + co) * 3 + phase.kernel_rows[t]) * 3 +
+                phase.kernel_cols[t]];
+  }
 }
 
 void SubpixelDeconvolution::multiply(const Phase& phase, int block_begin, int block_end,
@@ -91,6 +93,8 @@ void SubpixelDeconvolution::run(const float* src, int h, int w, float* dst,
   // the input's edge) and the columns a last block reads beyond that; products are computed on
   // the padded width (the extra column's results are dropped).
   padded_width_ = w + 1;
+  const ProductBlock block = ProductBlock::least_padding(cout_, h * padded_width_);
+  if (block.rows != rows_per_block_) pack(block);
   columns_ = round_up(h * padded_width_, lanes_per_block_);
   plane_ = std::size_t(round_up(columns_ + padded_width_ + 1, 8));
   padded_.assign(std::size_t(cin_) * plane_, 0.f);

@@ -10,6 +10,8 @@
 
 #include <vector>
 
+#include "avx2_product.hpp"
+
 namespace keyfleet::vision {
 
 class SubpixelDeconvolution {
@@ -32,15 +34,20 @@ class SubpixelDeconvolution {
  private:
   struct Phase {
     int taps = 0;
-    int shift_rows[4] = {}, shift_cols[4] = {};  // input offset (0 or 1) of each tap
-    std::vector<float> packed;                   // [row block][tap][input channel][rows_per_block]
+    int shift_rows[4] = {}, shift_cols[4] = {};    // input offset (0 or 1) of each tap
+    int kernel_rows[4] = {}, kernel_cols[4] = {};  // its place in the 3x3 kernel
+    std::vector<float> packed;  // [row block][tap][input channel][rows_per_block]
   };
 
+  void pack(ProductBlock block);  // the weights for blocks of that shape
   void multiply(const Phase& phase, int block_begin, int block_end, float* out) const;
 
-  int cin_, cout_, rows_per_block_, row_blocks_, lanes_per_block_;
-  std::vector<float> bias_;  // padded to whole row blocks
-  Phase phases_[4];          // (a, b) = (0, 0), (0, 1), (1, 0), (1, 1)
+  int cin_, cout_;
+  cv::Mat weights_;
+  std::vector<float> bias_;  // padded to whole row blocks of any shape
+  // The block shape the weights are packed for (chosen per input size: the least padding).
+  int rows_per_block_ = 0, row_blocks_ = 0, lanes_per_block_ = 0;
+  Phase phases_[4];  // (a, b) = (0, 0), (0, 1), (1, 0), (1, 1)
   // Per run: the input with a zero column and row after each plane, the four phase products.
   int padded_width_ = 0, columns_ = 0;
   std::size_t plane_ = 0;
