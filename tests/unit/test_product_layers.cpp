@@ -22,23 +22,14 @@ struct Geometry {
   int kernel = 3, stride = 2, pad = 1, adjust = 1;
 };
 
-// One transposed convolution (then a SELU when `selu`) through OpenCV DNN, with or without
-// keyfleet's stand-ins. `type`: the class of layer that ran the convolution.
-cv::Mat deconvolve(const cv::Mat& input, const cv::Mat& weights, const cv::Mat& bias, Geometry g,
-                   bool selu, DnnLayers layers, std::string* type = nullptr) {
-  cv::dnn::LayerParams params;
-  params.type = "Deconvolution";
-  params.name = "deconv";
+// One layer (then a SELU when `selu`) through OpenCV DNN, with or without keyfleet's stand-ins.
+// `type`: the class of layer that ran it.
+cv::Mat run_layer(cv::dnn::LayerParams params, const cv::Mat& input, const cv::Mat& weights,
+                  const cv::Mat& bias, bool selu, DnnLayers layers, std::string* type) {
+  params.name = "layer";
   params.blobs = {weights};
   if (!bias.empty()) params.blobs.push_back(bias);
   params.set("bias_term", !bias.empty());
-  params.set("num_output", weights.size[1]);
-  const int kernel[] = {g.kernel, g.kernel}, stride[] = {g.stride, g.stride},
-            pads[] = {g.pad, g.pad, g.pad, g.pad}, adjust[] = {g.adjust, g.adjust};
-  params.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
-  params.set("stride", cv::dnn::DictValue::arrayInt(stride, 2));
-  params.set("pad", cv::dnn::DictValue::arrayInt(pads, 4));
-  params.set("adj", cv::dnn::DictValue::arrayInt(adjust, 2));
   std::optional<DnnLayersScope> scope;
   if (layers.any()) scope.emplace(layers);
   cv::dnn::Net net;
@@ -53,6 +44,20 @@ cv::Mat deconvolve(const cv::Mat& input, const cv::Mat& weights, const cv::Mat& 
   const cv::Mat out = net.forward().clone();
   if (type) *type = net.getLayer(params.name)->type;
   return out;
+}
+
+cv::Mat deconvolve(const cv::Mat& input, const cv::Mat& weights, const cv::Mat& bias, Geometry g,
+                   bool selu, DnnLayers layers, std::string* type = nullptr) {
+  cv::dnn::LayerParams params;
+  params.type = "Deconvolution";
+  params.set("num_output", weights.size[1]);
+  const int kernel[] = {g.kernel, g.kernel}, stride[] = {g.stride, g.stride},
+            pads[] = {g.pad, g.pad, g.pad, g.pad}, adjust[] = {g.adjust, g.adjust};
+  params.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
+  params.set("stride", cv::dnn::DictValue::arrayInt(stride, 2));
+  params.set("pad", cv::dnn::DictValue::arrayInt(pads, 4));
+  params.set("adj", cv::dnn::DictValue::arrayInt(adjust, 2));
+  return run_layer(params, input, weights, bias, selu, layers, type);
 }
 
 struct Shape {
@@ -105,33 +110,14 @@ TEST(SubpixelDeconvolution, LeavesOtherGeometriesToOpenCv) {
   }
 }
 
-// One 1x1 convolution (then a SELU when `selu`) through OpenCV DNN, with or without keyfleet's
-// stand-ins; `type`: the class of layer that ran the convolution.
 cv::Mat convolve_1x1(const cv::Mat& input, const cv::Mat& weights, const cv::Mat& bias, bool selu,
                      DnnLayers layers, std::string* type = nullptr) {
   cv::dnn::LayerParams params;
   params.type = "Convolution";
-  params.name = "conv";
-  params.blobs = {weights};
-  if (!bias.empty()) params.blobs.push_back(bias);
-  params.set("bias_term", !bias.empty());
   params.set("num_output", weights.size[0]);
   const int kernel[] = {1, 1};
   params.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
-  std::optional<DnnLayersScope> scope;
-  if (layers.any()) scope.emplace(layers);
-  cv::dnn::Net net;
-  net.addLayerToPrev(params.name, params.type, params);
-  if (selu) {
-    cv::dnn::LayerParams activation;
-    activation.type = "Selu";
-    activation.name = "selu";
-    net.addLayerToPrev(activation.name, activation.type, activation);
-  }
-  net.setInput(input);
-  const cv::Mat out = net.forward().clone();
-  if (type) *type = net.getLayer(params.name)->type;
-  return out;
+  return run_layer(params, input, weights, bias, selu, layers, type);
 }
 
 TEST(PointwiseStandIn, MatchesOpenCvsConvolution) {
