@@ -87,15 +87,18 @@ TEST(ShippedMiniNet, StandInLayersGiveOpenCvsLogits) {
   cv::setNumThreads(1);
   auto logits = [&](DnnLayers layers) {
     std::optional<DnnLayersScope> scope;
-    if (layers.vectorised_selu || layers.depthwise) scope.emplace(layers);
+    if (layers.any()) scope.emplace(layers);
     cv::dnn::Net net = cv::dnn::readNetFromONNX(path);
     net.setInput(blob);
     return net.forward().clone();
   };
   const cv::Mat opencv = logits(DnnLayers::opencv());
-  for (const DnnLayers layers : {DnnLayers{true, false}, DnnLayers{false, true}, DnnLayers{}})
+  for (const DnnLayers layers :
+       {DnnLayers{true, false, false, false}, DnnLayers{false, true, false, false},
+        DnnLayers{false, false, true, false}, DnnLayers{false, false, false, true}, DnnLayers{}})
     EXPECT_LT(cv::norm(opencv, logits(layers), cv::NORM_INF), 1e-3)
-        << "selu " << layers.vectorised_selu << ", depthwise " << layers.depthwise;
+        << "selu " << layers.vectorised_selu << ", depthwise " << layers.depthwise << ", sub-pixel "
+        << layers.subpixel_deconvolution << ", pointwise " << layers.pointwise;
   DnnTextSegmenter a(path, 1, std::nullopt, DnnLayers::opencv());
   DnnTextSegmenter b(path, 1);
   const cv::Mat ma = a.segment({frame}).at(0), mb = b.segment({frame}).at(0);

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -34,6 +35,7 @@ struct SegmenterEvalOptions {
   std::string data = "../shared/data";
   std::size_t max_images = 0;
   int repetitions = 15;
+  bool profile = false;  // per layer type, at the first size
   std::vector<std::string> sizes = {"512x256", "256x128", "512x384", "320x256", "256x192"};
 };
 
@@ -53,8 +55,9 @@ struct Variant {
   vision::DnnLayers layers;
 };
 
-// Each model with OpenCV's layers, with the vectorised SELU only, and with both stand-ins (the
-// default), timed taking turns so that a noisy machine hits them alike.
+// Each model with OpenCV's layers, with the SELU and depthwise stand-ins (the default until the
+// matrix-product ones), and with all stand-ins (the default), timed taking turns so that a noisy
+// machine hits them alike.
 void print_variant_timings(const std::vector<Variant>& variants, const std::vector<cv::Size>& sizes,
                            int repetitions) {
   std::printf("\nms per forward pass (median of %d, the variants taking turns)\n", repetitions);
@@ -76,6 +79,38 @@ void print_variant_timings(const std::vector<Variant>& variants, const std::vect
       std::printf("%4dx%-5d %-30s %9.1f %6.2f %9.1f %6.2f\n", size.width, size.height,
                   variants[k].label.c_str(), ms[0][k], ms[0][k] / ms[0][0], ms[1][k],
                   ms[1][k] / ms[1][0]);
+  }
+}
+
+// ms per layer type on one thread (OpenCV's per-layer timers), median over the repetitions, the
+// variants taking turns.
+void print_layer_profile(const std::vector<Variant>& variants, cv::Size size, int repetitions) {
+  std::vector<std::unique_ptr<vision::DnnTextSegmenter>> nets;
+  const cv::Mat frame(size, CV_8UC3, cv::Scalar(90, 120, 150));
+  for (const auto& v : variants) {
+    nets.push_back(std::make_unique<vision::DnnTextSegmenter>(v.model, 1, size, v.layers));
+    nets.back()->segment({frame});  // warm-up
+  }
+  cv::setNumThreads(1);
+  std::vector<std::map<std::string, std::vector<double>>> ms(variants.size());
+  for (int i = 0; i < repetitions; ++i)
+    for (std::size_t k = 0; k < nets.size(); ++k) {
+      nets[k]->segment({frame});
+      double total = 0;
+      for (const auto& [type, t] : nets[k]->last_forward_ms_by_type()) {
+        ms[k][type].push_back(t);
+        total += t;
+      }
+      ms[k]["(all layers)"].push_back(total);
+    }
+  std::printf("\nms per layer type, 1 thread, %dx%d (median of %d, the variants taking turns)\n",
+              size.width, size.height, repetitions);
+  for (std::size_t k = 0; k < variants.size(); ++k) {
+    std::printf("%s\n", variants[k].label.c_str());
+    for (auto& [type, t] : ms[k]) {
+      std::nth_element(t.begin(), t.begin() + long(t.size() / 2), t.end());
+      if (t[t.size() / 2] >= 0.005) std::printf("  %-32s %8.2f\n", type.c_str(), t[t.size() / 2]);
+    }
   }
 }
 
@@ -130,19 +165,23 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
     if (i) std::printf("compare %zu: %s\n", i, path.c_str());
     const std::string name = i ? "compare " + std::to_string(i) : "model";
     variants.push_back({path, name + ", OpenCV layers", vision::DnnLayers::opencv()});
-    variants.push_back({path, name + ", vectorised SELU", vision::DnnLayers{true, false}});
-    variants.push_back({path, name + ", SELU + depthwise", vision::DnnLayers{}});
+    variants.push_back(
+        {path, name + ", SELU + depthwise", vision::DnnLayers{true, true, false, false}});
+    variants.push_back({path, name + ", all stand-ins", vision::DnnLayers{}});
   }
   print_variant_timings(variants, sizes, o.repetitions);
+  if (o.profile) print_layer_profile(variants, sizes.at(0), o.repetitions);
 
   const auto sets = evaluation_sets(o);
-  if (sets[0].present && variants.size() > 1) {
-    std::printf("\n%-24s %-30s %7s %7s %7s %7s\n", "set (512x256)", "variant", "images", "R %",
-                "P %", "IoU %");
+  // Each variant on each set: the stand-ins must score what OpenCV's layers score.
+  std::printf("\n%-24s %-30s %7s %7s %7s %7s\n", "set (512x256)", "variant", "images", "R %", "P %",
+              "IoU %");
+  for (const auto& set : sets) {
+    if (!set.present) continue;
     for (const auto& v : variants) {
       vision::DnnTextSegmenter net(v.model, 2, cv::Size(512, 256), v.layers);
-      const auto s = sets[0].run(net);
-      std::printf("%-24s %-30s %7zu %7.2f %7.2f %7.2f\n", sets[0].name.c_str(), v.label.c_str(),
+      const auto s = set.run(net);
+      std::printf("%-24s %-30s %7zu %7.2f %7.2f %7.2f\n", set.name.c_str(), v.label.c_str(),
                   s.images, 100 * s.recall, 100 * s.precision, 100 * s.iou);
     }
   }
@@ -198,6 +237,8 @@ void add_segmenter_commands(CLI::App& app) {
                    "per set; 0 = all (test_blurred: at most its first 100, the held-out ones)");
   eval->add_option("--repetitions", o->repetitions, "timed forward passes")
       ->check(CLI::Range(1, 10000));
+  eval->add_flag("--profile", o->profile,
+                 "ms per layer type of each variant at the first size on one thread");
   eval->add_option("--sizes", o->sizes, "input sizes WIDTHxHEIGHT")->capture_default_str();
   eval->callback([o] { run_reporting([&] { run_segmenter_eval(*o); }); });
 }

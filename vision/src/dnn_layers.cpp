@@ -8,9 +8,17 @@
 #include <algorithm>
 #include <mutex>
 
+#include "pointwise_convolution.hpp"
+#include "selu_avx2.hpp"
+#include "subpixel_deconvolution.hpp"
+
 namespace keyfleet::vision {
 
 void selu_vectorised(const float* src, float* dst, int n, float alpha, float gamma) {
+  const int done = selu_avx2(src, dst, n, alpha, gamma);
+  src += done;
+  dst += done;
+  n -= done;
   // Branch-free (signs are random: branches mispredict): e = exp(min(x, 0)) a chunk at a time.
   constexpr int kChunk = 512;
   float e[kChunk];
@@ -167,33 +175,169 @@ class DepthwiseLayer final : public cv::dnn::Layer {
   cv::Mat weights_, bias_;
 };
 
+// 1x1 convolution, stride 1, no padding, one group, by avx2_product.hpp; an activation after it
+// is applied as each stripe of columns is done.
+class PointwiseLayer final : public cv::dnn::Layer {
+ public:
+  explicit PointwiseLayer(const cv::dnn::LayerParams& params)
+      : kernel_(params.blobs[0], params.blobs.size() > 1 ? params.blobs[1] : cv::Mat()) {
+    setParamsFrom(params);
+    type = "KeyfleetPointwise";
+  }
+
+  static bool handles(const cv::dnn::LayerParams& params,
+                      const cv::dnn::BaseConvolutionLayer& geometry) {
+    if (!product_supported() || params.blobs.empty() || params.blobs[0].dims != 4 ||
+        params.blobs[0].type() != CV_32F)
+      return false;
+    const cv::Mat& w = params.blobs[0];
+    auto all = [](const std::vector<std::size_t>& values, std::size_t v) {
+      return values.size() == 2 && values[0] == v && values[1] == v;
+    };
+    return all(geometry.kernel_size, 1) && all(geometry.strides, 1) && all(geometry.dilations, 1) &&
+           all(geometry.pads_begin, 0) && all(geometry.pads_end, 0) && geometry.padMode.empty() &&
+           params.get<int>("group", 1) == 1 && geometry.numOutput == w.size[0] &&
+           (params.blobs.size() < 2 || int(params.blobs[1].total()) == w.size[0]);
+  }
+
+  bool getMemoryShapes(const std::vector<cv::dnn::MatShape>& inputs, int,
+                       std::vector<cv::dnn::MatShape>& outputs,
+                       std::vector<cv::dnn::MatShape>&) const override {
+    const cv::dnn::MatShape& in = inputs.at(0);
+    CV_Assert(in.size() == 4 && in[1] == kernel_.input_channels());
+    outputs = {{in[0], kernel_.output_channels(), in[2], in[3]}};
+    return false;
+  }
+
+  bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
+    activation_ = layer;
+    return !activation_.empty();
+  }
+
+  void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
+               cv::OutputArrayOfArrays) override {
+    std::vector<cv::Mat> inputs, outputs;
+    inputs_arr.getMatVector(inputs);
+    outputs_arr.getMatVector(outputs);
+    const cv::Mat& in = inputs.at(0);
+    cv::Mat& out = outputs.at(0);  // may be a slice of a concatenation: images apart
+    CV_Assert(in.type() == CV_32F && in.isContinuous() && out.type() == CV_32F);
+    for (int n = 0; n < in.size[0]; ++n)
+      kernel_.run(in.ptr<float>(n), in.size[2] * in.size[3], out.ptr<float>(n), activation_.get());
+  }
+
+ private:
+  PointwiseConvolution kernel_;
+  cv::Ptr<cv::dnn::ActivationLayer> activation_;
+};
+
+template <bool kDepthwise, bool kPointwise>
 cv::Ptr<cv::dnn::Layer> create_convolution(cv::dnn::LayerParams& params) {
   cv::Ptr<cv::dnn::BaseConvolutionLayer> opencv = cv::dnn::ConvolutionLayer::create(params);
-  if (!DepthwiseLayer::handles(params, *opencv)) return opencv;
-  return cv::makePtr<DepthwiseLayer>(params, *opencv);
+  if (kDepthwise && DepthwiseLayer::handles(params, *opencv))
+    return cv::makePtr<DepthwiseLayer>(params, *opencv);
+  if (kPointwise && PointwiseLayer::handles(params, *opencv))
+    return cv::makePtr<PointwiseLayer>(params);
+  return opencv;
+}
+
+// Transposed 3x3 convolution, stride 2, padding 1, output padding 1 (MiniNet's upsampling),
+// by its four sub-pixel convolutions; an activation after it is applied as each plane is done.
+class SubpixelDeconvolutionLayer final : public cv::dnn::Layer {
+ public:
+  explicit SubpixelDeconvolutionLayer(const cv::dnn::LayerParams& params)
+      : kernel_(params.blobs[0], params.blobs.size() > 1 ? params.blobs[1] : cv::Mat()) {
+    setParamsFrom(params);
+    type = "KeyfleetSubpixelDeconvolution";
+  }
+
+  static bool handles(const cv::dnn::LayerParams& params,
+                      const cv::dnn::BaseConvolutionLayer& geometry) {
+    if (!SubpixelDeconvolution::supported() || params.blobs.empty() || params.blobs[0].dims != 4 ||
+        params.blobs[0].type() != CV_32F)
+      return false;
+    const cv::Mat& w = params.blobs[0];
+    auto all = [](const std::vector<std::size_t>& values, std::size_t v) {
+      return values.size() == 2 && values[0] == v && values[1] == v;
+    };
+    return all(geometry.kernel_size, 3) && all(geometry.strides, 2) && all(geometry.dilations, 1) &&
+           all(geometry.pads_begin, 1) && all(geometry.pads_end, 1) &&
+           all(geometry.adjust_pads, 1) && geometry.padMode.empty() &&
+           params.get<int>("group", 1) == 1 && geometry.numOutput == w.size[1] &&
+           (params.blobs.size() < 2 || int(params.blobs[1].total()) == w.size[1]);
+  }
+
+  bool getMemoryShapes(const std::vector<cv::dnn::MatShape>& inputs, int,
+                       std::vector<cv::dnn::MatShape>& outputs,
+                       std::vector<cv::dnn::MatShape>&) const override {
+    const cv::dnn::MatShape& in = inputs.at(0);
+    CV_Assert(in.size() == 4 && in[1] == kernel_.input_channels());
+    outputs = {{in[0], kernel_.output_channels(), 2 * in[2], 2 * in[3]}};
+    return false;
+  }
+
+  bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
+    activation_ = layer;
+    return !activation_.empty();
+  }
+
+  void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
+               cv::OutputArrayOfArrays) override {
+    std::vector<cv::Mat> inputs, outputs;
+    inputs_arr.getMatVector(inputs);
+    outputs_arr.getMatVector(outputs);
+    const cv::Mat& in = inputs.at(0);
+    cv::Mat& out = outputs.at(0);  // may be a slice of a concatenation: images apart
+    CV_Assert(in.type() == CV_32F && in.isContinuous() && out.type() == CV_32F);
+    for (int n = 0; n < in.size[0]; ++n)
+      kernel_.run(in.ptr<float>(n), in.size[2], in.size[3], out.ptr<float>(n), activation_.get());
+  }
+
+ private:
+  SubpixelDeconvolution kernel_;
+  cv::Ptr<cv::dnn::ActivationLayer> activation_;
+};
+
+cv::Ptr<cv::dnn::Layer> create_deconvolution(cv::dnn::LayerParams& params) {
+  cv::Ptr<cv::dnn::BaseConvolutionLayer> opencv = cv::dnn::DeconvolutionLayer::create(params);
+  if (!SubpixelDeconvolutionLayer::handles(params, *opencv)) return opencv;
+  return cv::makePtr<SubpixelDeconvolutionLayer>(params);
 }
 
 }  // namespace
+
+bool matrix_product_layers_supported() { return product_supported(); }
 
 std::mutex& DnnLayersScope::scope_mutex() {
   static std::mutex mutex;
   return mutex;
 }
 
-DnnLayersScope::DnnLayersScope(DnnLayers layers) : layers_(layers), lock_(scope_mutex()) {
-  if (layers_.vectorised_selu)
-    cv::dnn::LayerFactory::registerLayer("Selu", VectorisedSeluLayer::create);
+DnnLayersScope::DnnLayersScope(DnnLayers layers) : lock_(scope_mutex()) {
+  const std::pair<bool, std::pair<const char*, cv::dnn::LayerFactory::Constructor>> chosen[] = {
+      {layers.vectorised_selu, {"Selu", VectorisedSeluLayer::create}},
+      {layers.depthwise || layers.pointwise,
+       {"Convolution", layers.depthwise ? layers.pointwise ? create_convolution<true, true>
+                                                           : create_convolution<true, false>
+                                        : create_convolution<false, true>}},
+      {layers.subpixel_deconvolution, {"Deconvolution", create_deconvolution}}};
   try {
-    if (layers_.depthwise) cv::dnn::LayerFactory::registerLayer("Convolution", create_convolution);
+    for (const auto& [use, layer] : chosen)
+      if (use) {
+        cv::dnn::LayerFactory::registerLayer(layer.first, layer.second);
+        registered_.push_back(layer.first);
+      }
   } catch (...) {
-    if (layers_.vectorised_selu) cv::dnn::LayerFactory::unregisterLayer("Selu");
+    unregister();
     throw;
   }
 }
 
-DnnLayersScope::~DnnLayersScope() {
-  if (layers_.depthwise) cv::dnn::LayerFactory::unregisterLayer("Convolution");
-  if (layers_.vectorised_selu) cv::dnn::LayerFactory::unregisterLayer("Selu");
+DnnLayersScope::~DnnLayersScope() { unregister(); }
+
+void DnnLayersScope::unregister() {
+  for (const std::string& type : registered_) cv::dnn::LayerFactory::unregisterLayer(type);
+  registered_.clear();
 }
 
 }  // namespace keyfleet::vision

@@ -54,7 +54,7 @@ DnnTextSegmenter::DnnTextSegmenter(const std::string& model_path, int threads,
     throw StartupError("segmenter: model file " + model_path + " does not exist");
   // OpenCV creates the layers while importing and on the first forward pass (the probe below).
   std::optional<DnnLayersScope> stand_ins;
-  if (layers.vectorised_selu || layers.depthwise) stand_ins.emplace(layers);
+  if (layers.any()) stand_ins.emplace(layers);
   try {
     net_ = cv::dnn::readNetFromONNX(model_path);
   } catch (const cv::Exception& e) {
@@ -75,6 +75,17 @@ DnnTextSegmenter::DnnTextSegmenter(const std::string& model_path, int threads,
   } catch (const std::runtime_error& e) {
     throw StartupError("segmenter: " + model_path + ": " + e.what());
   }
+}
+
+std::map<std::string, double> DnnTextSegmenter::last_forward_ms_by_type() const {
+  cv::dnn::Net net = net_;  // a handle: getPerfProfile is not const
+  std::vector<double> ticks;
+  net.getPerfProfile(ticks);
+  const std::vector<cv::String> names = net.getLayerNames();
+  std::map<std::string, double> ms;
+  for (std::size_t i = 0; i < names.size() && i < ticks.size(); ++i)
+    ms[net.getLayer(names[i])->type] += ticks[i] * 1000.0 / cv::getTickFrequency();
+  return ms;
 }
 
 std::vector<cv::Mat> DnnTextSegmenter::segment(const std::vector<cv::Mat>& frames) {

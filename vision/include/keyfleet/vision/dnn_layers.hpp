@@ -1,31 +1,49 @@
 #pragma once
-// Faster stand-ins for two OpenCV 4.6 DNN layers, computing the same functions to float rounding:
+// Faster stand-ins for OpenCV 4.6 DNN layers, computing the same functions to float rounding:
 // - SELU: OpenCV computes it one element at a time with std::exp (about 10 ns an element here, a
-//   quarter of MiniNet's forward pass on one thread); this one uses cv::hal::exp32f (about 1 ns).
-//   It derives from ActivationLayer, so OpenCV still fuses it into the convolution or sum before.
+//   quarter of MiniNet's forward pass on one thread); this one takes about 0.4 ns (AVX2 where the
+//   CPU has it, else cv::hal::exp32f, about 1 ns). It derives from ActivationLayer, so OpenCV
+//   still fuses it into the layer before when that layer takes an activation.
 // - stride-1 depthwise convolution: OpenCV's costs about a microsecond a channel on the narrow
 //   planes of MiniNet's inner layers (16, 8 and 4 columns at 512x256) and more when dilated; this
-//   one runs along the rows with SIMD and skips zero taps. Other convolutions stay OpenCV's.
+//   one runs along the rows with SIMD and skips zero taps.
+// - transposed 3x3 convolution, stride 2, padding 1, output padding 1 (MiniNet's upsampling):
+//   OpenCV multiplies by all nine taps into a column buffer, then scatters and sums it (col2im);
+//   this one computes each of the four output phases as one matrix product over the input read
+//   in place (no zero taps, no scatter).
+// - 1x1 convolution (stride 1, one group): the same matrix product, the activation applied
+//   while the columns are in cache.
+// The last two need x86-64 with AVX2 and FMA (elsewhere OpenCV's layers stay); any other
+// convolution or transposed convolution stays OpenCV's.
 #include <opencv2/dnn.hpp>
 
 #include <mutex>
+#include <string>
+#include <vector>
 
 namespace keyfleet::vision {
 
-// Which stand-ins a network gets (DnnTextSegmenter's default: both).
+// Which stand-ins a network gets (DnnTextSegmenter's default: all).
 struct DnnLayers {
   bool vectorised_selu = true;
   bool depthwise = true;
-  static DnnLayers opencv() { return {false, false}; }
+  bool subpixel_deconvolution = true;
+  bool pointwise = true;
+  static DnnLayers opencv() { return {false, false, false, false}; }
+  bool any() const { return vectorised_selu || depthwise || subpixel_deconvolution || pointwise; }
 };
+
+// Whether this CPU runs the transposed and 1x1 convolution stand-ins (x86-64 with AVX2 and FMA).
+bool matrix_product_layers_supported();
 
 // selu(x) = gamma * (max(x, 0) + alpha * (exp(min(x, 0)) - 1)), for n floats (in place allowed).
 void selu_vectorised(const float* src, float* dst, int n, float alpha, float gamma);
 
 // While alive, networks whose layers are created (on import and on their first forward pass)
-// get the chosen stand-ins for ONNX "Selu" and "Conv" nodes. OpenCV's layer registry is
-// process-wide: keep the scope to the construction of one network (layers already created keep
-// their class). One scope at a time in a process: a second one waits for the first to end.
+// get the chosen stand-ins for ONNX "Selu", "Conv" and "ConvTranspose" nodes. OpenCV's layer
+// registry is process-wide: keep the scope to the construction of one network (layers already
+// created keep their class). One scope at a time in a process: a second one waits for the first to
+// end.
 class DnnLayersScope {
  public:
   explicit DnnLayersScope(DnnLayers layers);
@@ -35,9 +53,10 @@ class DnnLayersScope {
 
  private:
   static std::mutex& scope_mutex();  // OpenCV refuses a second registration of a constructor
+  void unregister();
 
-  DnnLayers layers_;
   std::unique_lock<std::mutex> lock_;
+  std::vector<std::string> registered_;
 };
 
 }  // namespace keyfleet::vision

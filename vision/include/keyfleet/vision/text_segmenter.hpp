@@ -6,6 +6,7 @@
 
 #include "keyfleet/vision/dnn_layers.hpp"
 
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -40,13 +41,16 @@ class DnnTextSegmenter final : public TextSegmenter {
   // file, or a network that does not take that input or gives the wrong output shape, is a
   // StartupError naming the file.
   // `input_size` overrides the description's (for evaluations at other resolutions).
-  // `layers`: keyfleet's stand-ins for OpenCV's SELU and depthwise convolution (dnn_layers.hpp),
-  // the same outputs to float rounding; together MiniNet's forward pass at 512x256 on one thread
-  // takes about half as long (`keyfleet segmenter eval` compares them).
+  // `layers`: keyfleet's stand-ins for OpenCV's SELU, depthwise and transposed convolutions
+  // (dnn_layers.hpp), the same outputs to float rounding; together MiniNet's forward pass at
+  // 512x256 on one thread takes under half as long (`keyfleet segmenter eval` compares them).
   DnnTextSegmenter(const std::string& model_path, int threads,
                    std::optional<cv::Size> input_size = std::nullopt, DnnLayers layers = {});
   std::vector<cv::Mat> segment(const std::vector<cv::Mat>& bgr_frames) override;
   const SegmenterInfo& info() const override { return info_; }
+  // ms per layer type in the last forward pass (OpenCV's per-layer timers; keyfleet's stand-ins
+  // are the "Keyfleet..." types, a SELU fused into the layer before it counts there).
+  std::map<std::string, double> last_forward_ms_by_type() const;
 
  private:
   SegmenterInfo info_;

@@ -1,0 +1,165 @@
+// keyfleet's matrix-product stand-ins (dnn_layers.hpp) compute what OpenCV's layers do: the
+// sub-pixel transposed convolution for the geometry it takes over (3x3, stride 2, padding 1,
+// output padding 1) and the 1x1 convolution, with and without bias and a fused activation; other
+// geometries stay OpenCV's, and the shipped MiniNet gives the same masks in a batch as one frame
+// at a time.
+#include <gtest/gtest.h>
+
+#include <opencv2/dnn/shape_utils.hpp>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "keyfleet/vision/dnn_layers.hpp"
+#include "keyfleet/vision/model_files.hpp"
+#include "keyfleet/vision/text_segmenter.hpp"
+
+namespace keyfleet::vision {
+namespace {
+
+struct Geometry {
+  int kernel = 3, stride = 2, pad = 1, adjust = 1;
+};
+
+// One layer (then a SELU when `selu`) through OpenCV DNN, with or without keyfleet's stand-ins.
+// `type`: the class of layer that ran it.
+cv::Mat run_layer(cv::dnn::LayerParams params, const cv::Mat& input, const cv::Mat& weights,
+                  const cv::Mat& bias, bool selu, DnnLayers layers, std::string* type) {
+  params.name = "layer";
+  params.blobs = {weights};
+  if (!bias.empty()) params.blobs.push_back(bias);
+  params.set("bias_term", !bias.empty());
+  std::optional<DnnLayersScope> scope;
+  if (layers.any()) scope.emplace(layers);
+  cv::dnn::Net net;
+  net.addLayerToPrev(params.name, params.type, params);
+  if (selu) {
+    cv::dnn::LayerParams activation;
+    activation.type = "Selu";
+    activation.name = "selu";
+    net.addLayerToPrev(activation.name, activation.type, activation);
+  }
+  net.setInput(input);
+  const cv::Mat out = net.forward().clone();
+  if (type) *type = net.getLayer(params.name)->type;
+  return out;
+}
+
+cv::Mat deconvolve(const cv::Mat& input, const cv::Mat& weights, const cv::Mat& bias, Geometry g,
+                   bool selu, DnnLayers layers, std::string* type = nullptr) {
+  cv::dnn::LayerParams params;
+  params.type = "Deconvolution";
+  params.set("num_output", weights.size[1]);
+  const int kernel[] = {g.kernel, g.kernel}, stride[] = {g.stride, g.stride},
+            pads[] = {g.pad, g.pad, g.pad, g.pad}, adjust[] = {g.adjust, g.adjust};
+  params.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
+  params.set("stride", cv::dnn::DictValue::arrayInt(stride, 2));
+  params.set("pad", cv::dnn::DictValue::arrayInt(pads, 4));
+  params.set("adj", cv::dnn::DictValue::arrayInt(adjust, 2));
+  return run_layer(params, input, weights, bias, selu, layers, type);
+}
+
+struct Shape {
+  int cin, cout, h, w;
+  bool bias, selu;
+};
+
+TEST(SubpixelDeconvolution, MatchesOpenCvsTransposedConvolution) {
+  if (!matrix_product_layers_supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layer stays";
+  // Output channels in blocks of 6, of 4 with a partial block, of 2 and 1; widths below, at and
+  // above a vector; one-pixel planes.
+  const std::vector<Shape> shapes = {{5, 6, 3, 7, true, false},    {7, 4, 4, 9, false, true},
+                                     {3, 2, 1, 1, true, false},    {13, 5, 2, 16, true, true},
+                                     {20, 12, 5, 3, false, false}, {9, 1, 6, 17, true, false},
+                                     {40, 18, 4, 8, true, true},   {300, 7, 2, 5, false, false}};
+  cv::RNG rng(11);
+  for (const Shape& s : shapes) {
+    cv::Mat input({2, s.cin, s.h, s.w}, CV_32F), weights({s.cin, s.cout, 3, 3}, CV_32F), bias;
+    rng.fill(input, cv::RNG::UNIFORM, -2, 2);
+    rng.fill(weights, cv::RNG::UNIFORM, -1, 1);
+    if (s.bias) {
+      bias.create(1, s.cout, CV_32F);
+      rng.fill(bias, cv::RNG::UNIFORM, -1, 1);
+    }
+    const cv::Mat expected = deconvolve(input, weights, bias, {}, s.selu, DnnLayers::opencv());
+    std::string type;
+    const cv::Mat got = deconvolve(input, weights, bias, {}, s.selu, DnnLayers{}, &type);
+    EXPECT_EQ(type, "KeyfleetSubpixelDeconvolution");
+    ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
+    EXPECT_EQ(cv::dnn::shape(got), (cv::dnn::MatShape{2, s.cout, 2 * s.h, 2 * s.w}));
+    // Sums of up to 4 x cin products of magnitude <= 2, in another order than OpenCV's.
+    EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * 4 * s.cin * 2 + 1e-6)
+        << s.cin << " -> " << s.cout << ", " << s.w << "x" << s.h;
+  }
+}
+
+TEST(SubpixelDeconvolution, LeavesOtherGeometriesToOpenCv) {
+  cv::RNG rng(12);
+  for (const Geometry g :
+       {Geometry{3, 1, 1, 0}, Geometry{3, 2, 1, 0}, Geometry{4, 2, 1, 0}, Geometry{3, 2, 0, 1}}) {
+    cv::Mat input({1, 4, 5, 6}, CV_32F), weights({4, 3, g.kernel, g.kernel}, CV_32F);
+    rng.fill(input, cv::RNG::UNIFORM, -2, 2);
+    rng.fill(weights, cv::RNG::UNIFORM, -1, 1);
+    std::string type;
+    const cv::Mat got = deconvolve(input, weights, cv::Mat(), g, false, DnnLayers{}, &type);
+    EXPECT_EQ(type, "Deconvolution") << "kernel " << g.kernel << " stride " << g.stride;
+    EXPECT_EQ(cv::norm(got, deconvolve(input, weights, cv::Mat(), g, false, DnnLayers::opencv()),
+                       cv::NORM_INF),
+              0.0);
+  }
+}
+
+cv::Mat convolve_1x1(const cv::Mat& input, const cv::Mat& weights, const cv::Mat& bias, bool selu,
+                     DnnLayers layers, std::string* type = nullptr) {
+  cv::dnn::LayerParams params;
+  params.type = "Convolution";
+  params.set("num_output", weights.size[0]);
+  const int kernel[] = {1, 1};
+  params.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
+  return run_layer(params, input, weights, bias, selu, layers, type);
+}
+
+TEST(PointwiseStandIn, MatchesOpenCvsConvolution) {
+  if (!matrix_product_layers_supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layer stays";
+  // Output channels in whole blocks of 6 and 4 and in partial ones; pixel counts that fill whole
+  // column blocks (16, 24, 48) and that do not.
+  const std::vector<Shape> shapes = {{3, 12, 8, 16, true, true},  {12, 24, 4, 12, false, false},
+                                     {5, 4, 3, 8, true, false},   {7, 2, 6, 8, false, true},
+                                     {9, 5, 3, 7, true, true},    {386, 386, 4, 8, true, false},
+                                     {300, 7, 1, 1, false, true}, {28, 1, 5, 11, true, false}};
+  cv::RNG rng(14);
+  for (const Shape& s : shapes) {
+    cv::Mat input({2, s.cin, s.h, s.w}, CV_32F), weights({s.cout, s.cin, 1, 1}, CV_32F), bias;
+    rng.fill(input, cv::RNG::UNIFORM, -2, 2);
+    rng.fill(weights, cv::RNG::UNIFORM, -1, 1);
+    if (s.bias) {
+      bias.create(1, s.cout, CV_32F);
+      rng.fill(bias, cv::RNG::UNIFORM, -1, 1);
+    }
+    const cv::Mat expected = convolve_1x1(input, weights, bias, s.selu, DnnLayers::opencv());
+    std::string type;
+    const cv::Mat got = convolve_1x1(input, weights, bias, s.selu, DnnLayers{}, &type);
+    EXPECT_EQ(type, "KeyfleetPointwise");
+    ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
+    EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * s.cin * 2 + 1e-6)
+        << s.cin << " -> " << s.cout << ", " << s.w << "x" << s.h;
+  }
+}
+
+// Batched frames reach the transposed convolutions as slices of concatenated blobs (images not
+// contiguous): a batch gives each frame's own mask.
+TEST(SubpixelDeconvolution, ShippedMiniNetMasksOfABatchAreThoseOfEachFrame) {
+  DnnTextSegmenter net(locate_model("mininet_text.onnx", "segmenter model"), 1, cv::Size(128, 64));
+  cv::Mat a(64, 128, CV_8UC3), b(64, 128, CV_8UC3);
+  cv::RNG rng(13);
+  rng.fill(a, cv::RNG::UNIFORM, 0, 256);
+  rng.fill(b, cv::RNG::UNIFORM, 0, 256);
+  const std::vector<cv::Mat> both = net.segment({a, b});
+  ASSERT_EQ(both.size(), 2u);
+  EXPECT_EQ(cv::countNonZero(both[0] != net.segment({a}).at(0)), 0);
+  EXPECT_EQ(cv::countNonZero(both[1] != net.segment({b}).at(0)), 0);
+}
+
+}  // namespace
+}  // namespace keyfleet::vision

@@ -1,0 +1,27 @@
+#pragma once
+// The matrix product under keyfleet's convolution stand-ins, AVX2 + FMA (x86-64); internal to
+// keyfleet_vision. One call computes a block of rows x columns of
+//   out[r][n] = (bias ? bias[r] : out[r][n]) + sum over taps t, k < depth of
+//               a[t * a_tap_stride + k * rows + r] * b[k * plane + shift[t] + n],
+// i.e. a sum of products with the input read in place at a shift per tap (a transposed
+// convolution's phase, or a 1x1 convolution with one tap at shift 0), with its 12
+// accumulators in registers.
+#include <cstddef>
+
+namespace keyfleet::vision {
+
+bool product_supported();  // x86-64 with AVX2 and FMA
+
+struct ProductBlock {
+  int rows;     // output rows per block: 6, 4 or 2
+  int columns;  // columns per block: 96 / rows (12 accumulators of 8 floats)
+  // The shape that pads `rows` x `columns` the least (ties: more rows, fewer loads per product).
+  static ProductBlock least_padding(int rows, int columns);
+};
+
+// taps: 1, 2 or 4; shifts[taps]. Reads columns [0, block.columns) of b at each shift.
+void product_block(ProductBlock block, int taps, const float* a, std::size_t a_tap_stride,
+                   const float* b, const int* shifts, int depth, std::size_t plane,
+                   const float* bias, float* out, std::size_t out_stride);
+
+}  // namespace keyfleet::vision

@@ -1,0 +1,86 @@
+#include "pointwise_convolution.hpp"
+
+#include <algorithm>
+#include <cstring>
+
+namespace keyfleet::vision {
+
+PointwiseConvolution::PointwiseConvolution(const cv::Mat& weights, const cv::Mat& bias)
+    : cin_(weights.size[1]), cout_(weights.size[0]), weights_(weights) {
+  CV_Assert(weights.dims == 4 && weights.type() == CV_32F && weights.isContinuous() &&
+            weights.size[2] == 1 && weights.size[3] == 1);
+  CV_Assert(bias.empty() || (bias.type() == CV_32F && int(bias.total()) == cout_));
+  bias_.assign(std::size_t((cout_ + 11) / 12 * 12), 0.f);
+  for (int c = 0; c < cout_ && !bias.empty(); ++c) bias_[c] = bias.ptr<float>()[c];
+}
+
+void PointwiseConvolution::pack(ProductBlock block) {
+  block_ = block;
+  row_blocks_ = (cout_ + block_.rows - 1) / block_.rows;
+  packed_.assign(std::size_t(row_blocks_) * cin_ * block_.rows, 0.f);
+  const float* w = weights_.ptr<float>();  // [cout][cin]
+  for (int co = 0; co < cout_; ++co)
+    for (int ci = 0; ci < cin_; ++ci)
+      packed_[(std::size_t(co / block_.rows) * cin_ + ci) * block_.rows + co % block_.rows] =
+          w[std::size_t(co) * cin_ + ci];
+}
+
+void PointwiseConvolution::run(const float* src, int pixels, float* dst,
+                               const cv::dnn::ActivationLayer* activation) {
+  const ProductBlock block = ProductBlock::least_padding(cout_, pixels);
+  if (block.rows != block_.rows) pack(block);
+  const int width = block_.columns;
+  const int columns = (pixels + width - 1) / width * width;
+  // The input in place when its planes are whole blocks, else copied with zero columns after.
+  const float* b = src;
+  if (columns != pixels) {
+    padded_.assign(std::size_t(cin_) * columns, 0.f);
+    for (int c = 0; c < cin_; ++c)
+      std::copy_n(src + std::size_t(c) * pixels, pixels, padded_.data() + std::size_t(c) * columns);
+    b = padded_.data();
+  }
+  // The products straight into dst when they fill it exactly, else into a buffer first.
+  const bool direct = columns == pixels && cout_ % block_.rows == 0;
+  float* out = dst;
+  if (!direct) {
+    products_.resize(std::size_t(row_blocks_) * block_.rows * columns);
+    out = products_.data();
+  }
+  // Input channels in chunks whose block columns stay within about 16 KB (L1); stripes of a
+  // few blocks, finished (activation included) before the next.
+  const int most = std::max(8, 4096 / width);
+  const int chunks = (cin_ + most - 1) / most, depth = (cin_ + chunks - 1) / chunks;
+  constexpr int kStripe = 4;
+  const int stripes = (columns / width + kStripe - 1) / kStripe;
+  const int zero_shift = 0;
+  cv::parallel_for_(cv::Range(0, stripes), [&](const cv::Range& range) {
+    for (int stripe = range.start; stripe < range.end; ++stripe) {
+      const int first = stripe * kStripe, last = std::min(columns / width, first + kStripe);
+      for (int c0 = 0; c0 < cin_; c0 += depth) {
+        const int k = std::min(depth, cin_ - c0);
+        for (int blk = first; blk < last; ++blk)
+          for (int rb = 0; rb < row_blocks_; ++rb)
+            product_block(block_, 1, packed_.data() + (std::size_t(rb) * cin_ + c0) * block_.rows,
+                          0, b + std::size_t(c0) * columns + blk * width, &zero_shift, k, columns,
+                          c0 == 0 ? bias_.data() + rb * block_.rows : nullptr,
+                          out + std::size_t(rb) * block_.rows * columns + blk * width, columns);
+      }
+      const int n0 = first * width, n1 = std::min(pixels, last * width);
+      if (n1 <= n0) continue;
+      if (direct) {
+        if (activation) activation->forwardSlice(out + n0, dst + n0, n1 - n0, pixels, 0, cout_);
+        continue;
+      }
+      for (int c = 0; c < cout_; ++c) {
+        const float* from = out + std::size_t(c) * columns + n0;
+        float* to = dst + std::size_t(c) * pixels + n0;
+        if (activation)
+          activation->forwardSlice(from, to, n1 - n0, pixels, c, c + 1);
+        else
+          std::memcpy(to, from, sizeof(float) * (n1 - n0));
+      }
+    }
+  });
+}
+
+}  // namespace keyfleet::vision

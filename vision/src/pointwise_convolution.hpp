@@ -1,0 +1,41 @@
+#pragma once
+// A 1x1 convolution (stride 1, no padding, one group) as one matrix product per image through
+// avx2_product.hpp, with the activation after it applied to each stripe of columns as soon as it
+// is done (still in cache). Internal to keyfleet_vision (dnn_layers.cpp wraps it).
+#include <opencv2/core.hpp>
+#include <opencv2/dnn/all_layers.hpp>
+
+#include <vector>
+
+#include "avx2_product.hpp"
+
+namespace keyfleet::vision {
+
+class PointwiseConvolution {
+ public:
+  // weights: output channels x input channels x 1 x 1, float; bias: empty or one per output.
+  PointwiseConvolution(const cv::Mat& weights, const cv::Mat& bias);
+
+  int input_channels() const { return cin_; }
+  int output_channels() const { return cout_; }
+
+  // One image: src is input_channels planes of `pixels` floats, dst output_channels planes, each
+  // set contiguous; `activation` may be null. Runs on cv::parallel_for_'s threads; not reentrant.
+  void run(const float* src, int pixels, float* dst, const cv::dnn::ActivationLayer* activation);
+
+ private:
+  void pack(ProductBlock block);  // the weights for blocks of that shape
+
+  int cin_, cout_;
+  cv::Mat weights_;
+  std::vector<float> bias_;  // padded to whole row blocks of any shape
+  // The block shape the weights are packed for (chosen per input size: the least padding).
+  ProductBlock block_{0, 0};
+  int row_blocks_ = 0;
+  std::vector<float> packed_;  // [row block][input channel][block_.rows]
+  // Used when the columns or rows do not fill whole blocks: the input with zero columns after
+  // each plane, and the products before they go to dst.
+  std::vector<float> padded_, products_;
+};
+
+}  // namespace keyfleet::vision

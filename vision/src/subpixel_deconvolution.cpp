@@ -1,0 +1,140 @@
+#include "subpixel_deconvolution.hpp"
+
+#include <opencv2/core/hal/intrin.hpp>
+
+#include <algorithm>
+
+namespace keyfleet::vision {
+namespace {
+
+// Along one direction, output phase 0 (even) meets kernel tap 1 at input offset 0; phase 1
+// (odd) meets tap 2 at offset 0 and tap 0 at offset 1.
+struct Tap {
+  int offset, tap;
+};
+constexpr Tap kPhase0[] = {{0, 1}};
+constexpr Tap kPhase1[] = {{0, 2}, {1, 0}};
+
+int round_up(int value, int multiple) { return (value + multiple - 1) / multiple * multiple; }
+
+}  // namespace
+
+bool SubpixelDeconvolution::supported() { return product_supported(); }
+
+SubpixelDeconvolution::SubpixelDeconvolution(const cv::Mat& weights, const cv::Mat& bias)
+    : cin_(weights.size[0]), cout_(weights.size[1]), weights_(weights) {
+  CV_Assert(weights.dims == 4 && weights.type() == CV_32F && weights.isContinuous() &&
+            weights.size[2] == 3 && weights.size[3] == 3);
+  CV_Assert(bias.empty() || (bias.type() == CV_32F && int(bias.total()) == cout_));
+  bias_.assign(std::size_t(round_up(cout_, 12)), 0.f);
+  for (int c = 0; c < cout_ && !bias.empty(); ++c) bias_[c] = bias.ptr<float>()[c];
+  for (int a = 0; a < 2; ++a)
+    for (int b = 0; b < 2; ++b) {
+      Phase& phase = phases_[a * 2 + b];
+      const Tap* rows = a ? kPhase1 : kPhase0;
+      const Tap* cols = b ? kPhase1 : kPhase0;
+      const int col_taps = b ? 2 : 1;
+      phase.taps = (a ? 2 : 1) * col_taps;
+      for (int t = 0; t < phase.taps; ++t) {
+        phase.shift_rows[t] = rows[t / col_taps].offset;
+        phase.shift_cols[t] = cols[t % col_taps].offset;
+        phase.kernel_rows[t] = rows[t / col_taps].tap;
+        phase.kernel_cols[t] = cols[t % col_taps].tap;
+      }
+    }
+}
+
+void SubpixelDeconvolution::pack(ProductBlock block) {
+  rows_per_block_ = block.rows;
+  lanes_per_block_ = block.columns;
+  row_blocks_ = (cout_ + block.rows - 1) / block.rows;
+  const float* w = weights_.ptr<float>();  // [cin][cout][3][3]
+  for (Phase& phase : phases_) {
+    phase.packed.assign(std::size_t(row_blocks_) * phase.taps * cin_ * block.rows, 0.f);
+    for (int co = 0; co < cout_; ++co)
+      for (int t = 0; t < phase.taps; ++t)
+        for (int ci = 0; ci < cin_; ++ci)
+          phase.packed[((std::size_t(co / block.rows) * phase.taps + t) * cin_ + ci) * block.rows +
+                       co % block.rows] =
+              w[((std::size_t(ci) * cout_ + co) * 3 + phase.kernel_rows[t]) * 3 +
+                phase.kernel_cols[t]];
+  }
+}
+
+void SubpixelDeconvolution::multiply(const Phase& phase, int block_begin, int block_end,
+                                     float* out) const {
+  // Input channels in chunks whose columns of a block (all taps) stay within about 16 KB (L1).
+  const int most = std::max(8, 4096 / (phase.taps * lanes_per_block_));
+  const int chunks = (cin_ + most - 1) / most, depth = (cin_ + chunks - 1) / chunks;
+  int shifts[4];
+  for (int t = 0; t < phase.taps; ++t)
+    shifts[t] = phase.shift_rows[t] * padded_width_ + phase.shift_cols[t];
+  const int rows = rows_per_block_;
+  const std::size_t tap_stride = std::size_t(cin_) * rows;
+  for (int c0 = 0; c0 < cin_; c0 += depth) {
+    const int k = std::min(depth, cin_ - c0);
+    for (int block = block_begin; block < block_end; ++block) {
+      const int n0 = block * lanes_per_block_;
+      const float* b = padded_.data() + c0 * plane_ + n0;
+      for (int rb = 0; rb < row_blocks_; ++rb) {
+        const float* a = phase.packed.data() + (std::size_t(rb) * phase.taps * cin_ + c0) * rows;
+        const float* bias = c0 == 0 ? bias_.data() + rb * rows : nullptr;
+        float* o = out + std::size_t(rb) * rows * columns_ + n0;
+        product_block({rows, lanes_per_block_}, phase.taps, a, tap_stride, b, shifts, k, plane_,
+                      bias, o, columns_);
+      }
+    }
+  }
+}
+
+void SubpixelDeconvolution::run(const float* src, int h, int w, float* dst,
+                                const cv::dnn::ActivationLayer* activation) {
+  // Each plane gets a zero column and a zero row after it (what the taps at offset 1 read past
+  // the input's edge) and the columns a last block reads beyond that; products are computed on
+  // the padded width (the extra column's results are dropped).
+  padded_width_ = w + 1;
+  const ProductBlock block = ProductBlock::least_padding(cout_, h * padded_width_);
+  if (block.rows != rows_per_block_) pack(block);
+  columns_ = round_up(h * padded_width_, lanes_per_block_);
+  plane_ = std::size_t(round_up(columns_ + padded_width_ + 1, 8));
+  padded_.assign(std::size_t(cin_) * plane_, 0.f);
+  for (int c = 0; c < cin_; ++c)
+    for (int y = 0; y < h; ++y)
+      std::copy_n(src + (std::size_t(c) * h + y) * w, w,
+                  padded_.data() + c * plane_ + std::size_t(y) * padded_width_);
+  const std::size_t phase_size = std::size_t(row_blocks_) * rows_per_block_ * columns_;
+  products_.resize(4 * phase_size);
+  cv::parallel_for_(cv::Range(0, columns_ / lanes_per_block_), [&](const cv::Range& blocks) {
+    for (int p = 0; p < 4; ++p)
+      multiply(phases_[p], blocks.start, blocks.end, products_.data() + p * phase_size);
+  });
+
+  // Interleave the phases: output row 2y + a takes phases (a, 0) and (a, 1) in turn.
+  const std::size_t out_plane = std::size_t(4) * h * w;
+  cv::parallel_for_(cv::Range(0, cout_), [&](const cv::Range& channels) {
+    for (int c = channels.start; c < channels.end; ++c) {
+      float* plane = dst + c * out_plane;
+      for (int y = 0; y < h; ++y)
+        for (int a = 0; a < 2; ++a) {
+          const std::size_t at = std::size_t(c) * columns_ + std::size_t(y) * padded_width_;
+          const float* even = products_.data() + (2 * a) * phase_size + at;
+          const float* odd = products_.data() + (2 * a + 1) * phase_size + at;
+          float* row = plane + std::size_t(2 * y + a) * 2 * w;
+          int x = 0;
+          for (; x + 4 <= w; x += 4) {
+            cv::v_float32x4 lo, hi;
+            cv::v_zip(cv::v_load(even + x), cv::v_load(odd + x), lo, hi);
+            cv::v_store(row + 2 * x, lo);
+            cv::v_store(row + 2 * x + 4, hi);
+          }
+          for (; x < w; ++x) {
+            row[2 * x] = even[x];
+            row[2 * x + 1] = odd[x];
+          }
+        }
+      if (activation) activation->forwardSlice(plane, plane, int(out_plane), out_plane, c, c + 1);
+    }
+  });
+}
+
+}  // namespace keyfleet::vision

@@ -1,0 +1,57 @@
+#pragma once
+// A transposed 3x3 convolution with stride 2, padding 1 and output padding 1 (the output is twice
+// the input in each direction) computed as its four sub-pixel convolutions: output pixel
+// (2i + a, 2j + b) only ever meets the kernel taps of its phase (a, b), 1, 2, 2 and 4 taps of the
+// nine, applied to input pixels (i, j), (i, j + 1), (i + 1, j), (i + 1, j + 1). Each phase is one
+// matrix product over the input read in place, so no scatter of partial sums (OpenCV's col2im)
+// and no multiplication by zero. Internal to keyfleet_vision (dnn_layers.cpp wraps it).
+#include <opencv2/core.hpp>
+#include <opencv2/dnn/all_layers.hpp>
+
+#include <vector>
+
+#include "avx2_product.hpp"
+
+namespace keyfleet::vision {
+
+class SubpixelDeconvolution {
+ public:
+  // Whether this CPU runs the kernel (x86-64 with AVX2 and FMA); elsewhere OpenCV's layer stays.
+  static bool supported();
+
+  // weights: input channels x output channels x 3 x 3 (ONNX ConvTranspose's layout), float;
+  // bias: empty or one float per output channel.
+  SubpixelDeconvolution(const cv::Mat& weights, const cv::Mat& bias);
+
+  int input_channels() const { return cin_; }
+  int output_channels() const { return cout_; }
+
+  // One image: src is input_channels planes of h x w, dst output_channels planes of 2h x 2w,
+  // each set contiguous; `activation` (may be null) is applied to each output plane once written.
+  // Runs on cv::parallel_for_'s threads. Not reentrant (work buffers).
+  void run(const float* src, int h, int w, float* dst, const cv::dnn::ActivationLayer* activation);
+
+ private:
+  struct Phase {
+    int taps = 0;
+    int shift_rows[4] = {}, shift_cols[4] = {};    // input offset (0 or 1) of each tap
+    int kernel_rows[4] = {}, kernel_cols[4] = {};  // its place in the 3x3 kernel
+    std::vector<float> packed;  // [row block][tap][input channel][rows_per_block]
+  };
+
+  void pack(ProductBlock block);  // the weights for blocks of that shape
+  void multiply(const Phase& phase, int block_begin, int block_end, float* out) const;
+
+  int cin_, cout_;
+  cv::Mat weights_;
+  std::vector<float> bias_;  // padded to whole row blocks of any shape
+  // The block shape the weights are packed for (chosen per input size: the least padding).
+  int rows_per_block_ = 0, row_blocks_ = 0, lanes_per_block_ = 0;
+  Phase phases_[4];  // (a, b) = (0, 0), (0, 1), (1, 0), (1, 1)
+  // Per run: the input with a zero column and row after each plane, the four phase products.
+  int padded_width_ = 0, columns_ = 0;
+  std::size_t plane_ = 0;
+  std::vector<float> padded_, products_;
+};
+
+}  // namespace keyfleet::vision
