@@ -149,7 +149,7 @@ std::string bandwidth_svg(const std::vector<BandwidthSeries>& series) {
 }
 
 std::string map_svg(const nlohmann::json& map) {
-  constexpr double kWidth = 640, kHeight = 320, kPad = 20;
+  constexpr double kWidth = 640, kPad = 20;
   const auto& nodes = map.at("nodes");
   std::map<std::string, std::size_t> order;
   for (const auto& n : nodes) order.emplace(n.at("robot").get<std::string>(), 0);
@@ -177,9 +177,13 @@ std::string map_svg(const nlohmann::json& map) {
       y0 = std::min(y0, p.second), y1 = std::max(y1, p.second);
     }
   }
-  // Same scale on both axes where the map fits, else the narrow one stretched to a quarter.
+  // The same scale on both axes while the drawing stays 100..280 px high; a narrower map is
+  // stretched across to 100 px, a taller one squeezed to 280.
   const double xr = std::max(x1 - x0, 1e-6);
-  const double yr = std::max({y1 - y0, xr * (kHeight - 2 * kPad) / (kWidth - 2 * kPad) / 4, 1e-6});
+  const double along = (kWidth - 2 * kPad) / xr;  // px per unit
+  const double inner = std::clamp((y1 - y0) * along, 100.0, 280.0);
+  const double kHeight = inner + 2 * kPad;
+  const double yr = std::max(y1 - y0, inner / along);
   const double ym = (y0 + y1) / 2;
   const Axis x{x0, x0 + xr, kPad, kWidth - kPad};
   const Axis y{ym - yr / 2, ym + yr / 2, kPad, kHeight - kPad};
