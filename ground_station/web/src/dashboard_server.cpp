@@ -119,19 +119,13 @@ bool DashboardServer::authorised(const std::string& token_param,
   return token_param == config_.token || authorization == "Bearer " + config_.token;
 }
 
-// Recomputes the summary every update period, or at once when poked; pages get it when it
-// changed.
+// While a page is open: recomputes the summary every update period, or at once when poked;
+// pages get it when it changed. With no page open the station pays nothing for it.
 void DashboardServer::publish_loop() {
   const auto period = milliseconds(static_cast<long>(config_.update_period_s * 1000));
   while (!stopping_) {
     try {
-      const auto live = live_ ? live_() : std::nullopt;
-      std::string summary;
-      {
-        std::lock_guard<std::mutex> lock(view_mutex_);
-        summary = view_->summary(live).dump();
-      }
-      events_.publish(std::move(summary));
+      if (listeners_ > 0) publish_summary();
     } catch (const std::exception& e) {
       logger_->warn("dashboard: summary not updated: {}", e.what());
     }
@@ -139,6 +133,16 @@ void DashboardServer::publish_loop() {
     poked_.wait_for(lock, period, [this] { return poke_ || stopping_; });
     poke_ = false;
   }
+}
+
+void DashboardServer::publish_summary() {
+  const auto live = live_ ? live_() : std::nullopt;
+  std::string summary;
+  {
+    std::lock_guard<std::mutex> lock(view_mutex_);
+    summary = view_->summary(live).dump();
+  }
+  events_.publish(std::move(summary));
 }
 
 void DashboardServer::add_routes() {
@@ -218,8 +222,11 @@ void DashboardServer::add_routes() {
   s.Get("/api/events", [this](const httplib::Request&, httplib::Response& res) {
     res.set_header("Cache-Control", "no-cache");
     auto last = std::make_shared<std::uint64_t>(0);
+    ++listeners_;
+    poke();  // a fresh summary for the new page
     res.set_chunked_content_provider(
-        "text/event-stream", [this, last](std::size_t, httplib::DataSink& sink) {
+        "text/event-stream",
+        [this, last](std::size_t, httplib::DataSink& sink) {
           const auto event = events_.next(*last, milliseconds(15000));
           if (events_.closed()) return false;
           // A comment line keeps idle connections (and proxies) open.
@@ -228,7 +235,8 @@ void DashboardServer::add_routes() {
                                          : std::string(": idle\n\n");
           if (event) *last = event->id;
           return sink.write(text.data(), text.size());
-        });
+        },
+        [this](bool) { --listeners_; });
   });
 }
 

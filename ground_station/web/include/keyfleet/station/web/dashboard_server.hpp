@@ -54,6 +54,7 @@ class DashboardServer {
  private:
   void add_routes();
   void publish_loop();
+  void publish_summary();
   bool authorised(const std::string& token_param, const std::string& authorization) const;
 
   DashboardConfig config_;
@@ -69,6 +70,7 @@ class DashboardServer {
   std::condition_variable poked_;
   bool poke_ = false;
   std::atomic<bool> stopping_{false};
+  std::atomic<int> listeners_{0};  // open event streams
 };
 
 }  // namespace keyfleet::station::web
