@@ -16,6 +16,7 @@ PACKAGES=(
   libyaml-cpp-dev
   libcli11-dev
   nlohmann-json3-dev
+  libcpp-httplib-dev
   libsqlite3-dev sqlite3
   libgtest-dev libgmock-dev googletest
   libbenchmark-dev
@@ -23,6 +24,7 @@ PACKAGES=(
   iproute2
   python3-torch python3-onnx python3-opencv python3-numpy
   python3-matplotlib
+  chromium chromium-driver python3-selenium
   fonts-dejavu-core fonts-liberation2 fonts-freefont-ttf fonts-urw-base35
 )
 

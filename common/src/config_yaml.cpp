@@ -331,10 +331,22 @@ void visit(V& v, AnalysisConfig& c) {
 }
 
 template <class V>
+void visit(V& v, DashboardConfig& c) {
+  v.field("enabled", c.enabled);
+  v.field("address", c.address);
+  v.field("port", c.port, between(0, 65535));
+  v.field("token", c.token);
+  v.field("update_period_s", c.update_period_s, between(0.05, 60.0));
+  v.field("thumbnails_per_robot", c.thumbnails_per_robot, between(1, 1000));
+  v.field("threads", c.threads, between(2, 64));
+}
+
+template <class V>
 void visit(V& v, StationConfig& c) {
   v.section("dds", c.dds);
   v.section("limits", c.limits);
   v.section("analysis", c.analysis);
+  v.section("dashboard", c.dashboard);
   v.field("database", c.database);
   v.field("mission_log", c.mission_log);
   v.field("report_period_s", c.report_period_s, positive());
@@ -368,7 +380,17 @@ void validate(const AgentConfig& c, const std::string& origin) {
     throw ConfigError(origin + ": source.path: required when source.kind is folder or video");
 }
 
-void validate(const StationConfig&, const std::string&) {}
+void validate(const StationConfig& c, const std::string& origin) {
+  const DashboardConfig& d = c.dashboard;
+  if (d.enabled && !is_loopback_address(d.address) && d.token.empty())
+    throw ConfigError(origin + ": dashboard.token: required when dashboard.address (" + d.address +
+                      ") is not a loopback address: anyone on the network could open it");
+}
+
+bool is_loopback_address(const std::string& address) {
+  static const std::regex ipv4_loopback("127\\.[0-9]{1,3}\\.[0-9]{1,3}\\.[0-9]{1,3}");
+  return address == "localhost" || address == "::1" || std::regex_match(address, ipv4_loopback);
+}
 
 bool is_valid_robot_id(const std::string& robot_id) {
   static const std::regex pattern("[A-Za-z0-9_-]{1,32}");

@@ -16,6 +16,7 @@
 #include "keyfleet/station/ground_station.hpp"
 #include "keyfleet/station/keyframe_analyzer.hpp"
 #include "keyfleet/station/station_analysis.hpp"
+#include "keyfleet/station/web/dashboard_server.hpp"
 
 namespace {
 
@@ -53,7 +54,23 @@ int run(const ProcessOptions& options) {
                              static_cast<std::size_t>(analysis_config.queue_capacity), logger);
   station::StationAnalysis analysis(store, analysis_store, map, pool, logger);
   analysis.restore(places.get());
-  station.on_stored([&analysis](const Keyframe& k) { analysis.on_stored(k); });
+
+  // The dashboard reads the database on its own threads; the pool outlives it.
+  std::unique_ptr<station::web::DashboardServer> dashboard;
+  const fs::path url_file = fs::path(options.run_dir) / "dashboard.url";
+  fs::remove(url_file);
+  if (config.dashboard.enabled) {
+    dashboard = std::make_unique<station::web::DashboardServer>(
+        config.dashboard, store.path(), [&pool] { return std::optional(pool.counters()); }, logger);
+    // Written whole, then renamed: `keyfleet mission` reads it while the station runs.
+    std::ofstream(url_file.string() + ".tmp") << dashboard->url() << "\n";
+    fs::rename(url_file.string() + ".tmp", url_file);
+    logger->info("dashboard at {}", dashboard->url());
+  }
+  station.on_stored([&analysis, &dashboard](const Keyframe& k) {
+    analysis.on_stored(k);
+    if (dashboard) dashboard->poke();
+  });
 
   mission_log.event("station started", wall_time_ns());
   logger->info("station ready: {} keyframe(s) already in {}", store.keyframe_count(), store.path());
@@ -64,7 +81,7 @@ int run(const ProcessOptions& options) {
   auto next_report = Clock::now() + report_period;
   while (!shutdown.stop.requested()) {
     station.step(std::chrono::milliseconds(100));
-    analysis.step();
+    if (analysis.step() > 0 && dashboard) dashboard->poke();
     if (Clock::now() >= next_report) {
       const auto report = station::build_bandwidth_report(store.totals());
       logger->info("{} robot(s), {} keyframes stored, {} bytes received", report.robots.size(),
@@ -83,6 +100,10 @@ int run(const ProcessOptions& options) {
   }
   pool.stop();
   analysis.step();
+  if (dashboard) {
+    dashboard->stop();
+    fs::remove(url_file);
+  }
   mission_log.event("station stopped", wall_time_ns());
   std::string table = station::write_bandwidth_report(
       station::build_bandwidth_report(store.totals()), options.run_dir);

@@ -2,9 +2,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 namespace keyfleet::station {
@@ -181,6 +183,33 @@ std::string to_csv(const BandwidthReport& report) {
   for (const auto& r : report.robots) row(r);
   row(report.fleet);
   return out.str();
+}
+
+std::vector<BandwidthSeries> build_bandwidth_timeline(
+    const std::vector<StoredKeyframeInfo>& keyframes, const std::vector<StatsSample>& stats) {
+  std::map<std::string, BandwidthSeries> by_robot;
+  auto series = [&](const std::string& robot) -> BandwidthSeries& {
+    BandwidthSeries& s = by_robot[robot];
+    s.robot_id = robot;
+    return s;
+  };
+  std::vector<const StoredKeyframeInfo*> by_time;
+  for (const auto& k : keyframes) by_time.push_back(&k);
+  std::stable_sort(by_time.begin(), by_time.end(),
+                   [](auto* a, auto* b) { return a->received_ns < b->received_ns; });
+  for (const StoredKeyframeInfo* k : by_time) {
+    auto& received = series(k->robot_id).received;
+    const std::uint64_t before = received.empty() ? 0 : received.back().bytes;
+    received.push_back({k->received_ns, before + k->serialized_bytes});
+  }
+  for (const StatsSample& s : stats) {
+    BandwidthSeries& out = series(s.robot_id);
+    out.stream_all.push_back({s.report_time_ns, s.stream_all_bytes});
+    out.vslam_keyframes.push_back({s.report_time_ns, s.vslam_keyframe_bytes});
+  }
+  std::vector<BandwidthSeries> out;
+  for (auto& [robot, s] : by_robot) out.push_back(std::move(s));
+  return out;
 }
 
 std::string write_bandwidth_report(const BandwidthReport& report, const std::string& run_dir) {

@@ -57,6 +57,13 @@ CREATE TABLE IF NOT EXISTS agent_stats (
   vslam_keyframe_bytes INTEGER NOT NULL,
   vslam_keyframe_estimated INTEGER NOT NULL
 );
+CREATE TABLE IF NOT EXISTS agent_stats_history (
+  robot_id TEXT NOT NULL,
+  report_time_ns INTEGER NOT NULL,
+  frames_seen INTEGER NOT NULL,
+  stream_all_bytes INTEGER NOT NULL,
+  vslam_keyframe_bytes INTEGER NOT NULL
+);
 CREATE TABLE IF NOT EXISTS stage_times (
   robot_id TEXT NOT NULL,
   stage TEXT NOT NULL,
@@ -81,6 +88,8 @@ KeyframeStore::KeyframeStore(const std::string& path, SqliteDb::Mode mode) : db_
   if (mode == SqliteDb::Mode::kReadOnly) {
     auto columns = db_.prepare("SELECT 1 FROM pragma_table_info('keyframes') WHERE name = ?");
     has_text_regions_ = columns.bind(1, std::string("text_regions")).step();
+    auto tables = db_.prepare("SELECT 1 FROM sqlite_master WHERE name = 'agent_stats_history'");
+    has_stats_history_ = tables.step();
     return;
   }
   db_.exec(kSchema);
@@ -177,6 +186,13 @@ void KeyframeStore::record_stats(const AgentStats& s) {
         .bind(16, std::int64_t{s.vslam_keyframe_estimated})
         .step();
     if (db_.changes() > 0) {
+      db_.prepare("INSERT INTO agent_stats_history VALUES(?,?,?,?,?)")
+          .bind(1, s.robot_id)
+          .bind(2, s.report_time_ns)
+          .bind(3, as_int(s.frames_seen))
+          .bind(4, as_int(s.stream_all_bytes))
+          .bind(5, as_int(s.vslam_keyframe_bytes))
+          .step();
       for (const auto& stage : s.stages) {
         db_.prepare("INSERT OR REPLACE INTO stage_times VALUES(?,?,?,?)")
             .bind(1, s.robot_id)
@@ -257,11 +273,27 @@ std::uint64_t KeyframeStore::keyframe_count() const {
 std::vector<StoredKeyframeInfo> KeyframeStore::keyframe_index() const {
   auto query = db_.prepare(
       "SELECT robot_id, sequence_number, capture_time_ns, pose_tx, pose_ty, pose_tz, pose_qx, "
-      "pose_qy, pose_qz, pose_qw FROM keyframes ORDER BY received_ns");
+      "pose_qy, pose_qz, pose_qw, frame_index, received_ns, serialized_bytes, width, height "
+      "FROM keyframes ORDER BY received_ns");
   std::vector<StoredKeyframeInfo> out;
   while (query.step()) {
-    out.push_back(StoredKeyframeInfo{query.text(0), as_uint(query.int64(1)), query.int64(2),
-                                     pose_at(query, 3)});
+    out.push_back(StoredKeyframeInfo{
+        query.text(0), as_uint(query.int64(1)), query.int64(2), pose_at(query, 3),
+        as_uint(query.int64(10)), query.int64(11), as_uint(query.int64(12)),
+        static_cast<std::uint32_t>(query.int64(13)), static_cast<std::uint32_t>(query.int64(14))});
+  }
+  return out;
+}
+
+std::vector<StatsSample> KeyframeStore::stats_history() const {
+  std::vector<StatsSample> out;
+  if (!has_stats_history_) return out;
+  auto query = db_.prepare(
+      "SELECT robot_id, report_time_ns, frames_seen, stream_all_bytes, vslam_keyframe_bytes "
+      "FROM agent_stats_history ORDER BY robot_id, report_time_ns");
+  while (query.step()) {
+    out.push_back(StatsSample{query.text(0), query.int64(1), as_uint(query.int64(2)),
+                              as_uint(query.int64(3)), as_uint(query.int64(4))});
   }
   return out;
 }

@@ -87,6 +87,17 @@ TEST_F(MissionCommand, GeneratesAScenarioAndReplaysEachDroneWithItsPoses) {
   auto q = store.prepare("SELECT COUNT(*) FROM keyframes WHERE pose_tx IS NOT NULL");
   ASSERT_TRUE(q.step());
   EXPECT_EQ(q.int64(0), 6) << "keyframes from a scenario carry the true camera pose";
+
+  // The station served its dashboard, and the run folder has a report.html with the scenario's
+  // ground truth under each keyframe.
+  EXPECT_TRUE(std::regex_search(output, std::regex(R"(dashboard: http://127\.0\.0\.1:\d+/)")))
+      << output;
+  std::ifstream html(std::filesystem::path(run_folder[1].str()) / "report.html");
+  std::stringstream text;
+  text << html.rdbuf();
+  EXPECT_NE(text.str().find("truth:"), std::string::npos);
+  EXPECT_NE(text.str().find("data:image/jpeg;base64,"), std::string::npos);
+  EXPECT_NE(text.str().find("placed by pose"), std::string::npos);
 }
 
 }  // namespace

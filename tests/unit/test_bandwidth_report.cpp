@@ -251,3 +251,32 @@ TEST(WriteBandwidthReport, WritesJsonCsvAndTableFiles) {
 
 }  // namespace
 }  // namespace keyfleet::station
+
+namespace keyfleet::station {
+namespace {
+
+TEST(BandwidthTimeline, ReceivedAccumulatesInReceiveOrderAndBaselinesFollowTheStats) {
+  std::vector<StoredKeyframeInfo> keyframes(3);
+  keyframes[0] = {"drone_1", 1, 0, std::nullopt, 5, 300, 1000, 64, 48};
+  keyframes[1] = {"drone_0", 2, 0, std::nullopt, 9, 200, 500, 64, 48};
+  keyframes[2] = {"drone_0", 1, 0, std::nullopt, 4, 100, 700, 64, 48};
+  const std::vector<StatsSample> stats = {{"drone_0", 150, 10, 5000, 1500},
+                                          {"drone_0", 250, 20, 9000, 2500},
+                                          {"drone_2", 260, 5, 100, 10}};
+  const auto series = build_bandwidth_timeline(keyframes, stats);
+  ASSERT_EQ(series.size(), 3u);
+  EXPECT_EQ(series[0].robot_id, "drone_0");
+  ASSERT_EQ(series[0].received.size(), 2u);
+  EXPECT_EQ(series[0].received[0].time_ns, 100);
+  EXPECT_EQ(series[0].received[0].bytes, 700u);
+  EXPECT_EQ(series[0].received[1].bytes, 1200u);
+  ASSERT_EQ(series[0].stream_all.size(), 2u);
+  EXPECT_EQ(series[0].stream_all[1].bytes, 9000u);
+  EXPECT_EQ(series[0].vslam_keyframes[0].bytes, 1500u);
+  EXPECT_EQ(series[1].received[0].bytes, 1000u);
+  EXPECT_TRUE(series[1].stream_all.empty());
+  EXPECT_TRUE(series[2].received.empty());  // stats but no keyframe yet
+}
+
+}  // namespace
+}  // namespace keyfleet::station

@@ -232,6 +232,23 @@ TEST_F(KeyframeStoreTest, RecordStatsKeepsTheNewestReport) {
   EXPECT_EQ(totals[0].latest_stats->stages[0].calls, 30u);
 }
 
+TEST_F(KeyframeStoreTest, StatsHistoryKeepsEachNewerReportInTimeOrder) {
+  KeyframeStore store(path_);
+  store.record_stats(stats_for("drone_0", kT0 + 200, 20));
+  store.record_stats(stats_for("drone_0", kT0 + 100, 10));  // older than the latest: not kept
+  store.record_stats(stats_for("drone_0", kT0 + 300, 30));
+  const auto history = KeyframeStore(path_, SqliteDb::Mode::kReadOnly).stats_history();
+  ASSERT_EQ(history.size(), 2u);
+  EXPECT_EQ(history[0].report_time_ns, kT0 + 200);
+  EXPECT_EQ(history[1].frames_seen, 30u);
+  // A database written before the history was kept has none, read-only.
+  {
+    SqliteDb db(path_);
+    db.exec("DROP TABLE agent_stats_history");
+  }
+  EXPECT_TRUE(KeyframeStore(path_, SqliteDb::Mode::kReadOnly).stats_history().empty());
+}
+
 TEST_F(KeyframeStoreTest, StatsOfDifferentRobotsAreKeptApart) {
   KeyframeStore store(path_);
   store.record_stats(stats_for("alpha", kT0 + 500, 50));

@@ -37,8 +37,10 @@ int run_mission(const std::string& config_path, int drones, const std::string& r
   std::cout << "\n" << result.report_table;
   if (!result.scenario_dir.empty())
     commands::print_run_text_score(result.run_dir, result.scenario_dir);
-  std::cout << "\nrun folder: " << result.run_dir
-            << "\n  station/station.sqlite  keyframes (SQLite)"
+  std::cout << "\nrun folder: " << result.run_dir;
+  if (!result.report_html.empty())
+    std::cout << "\n  report.html  the run to look at (opens from disk in a browser)";
+  std::cout << "\n  station/station.sqlite  keyframes (SQLite)"
                "\n  station/mission_log.pb  mission log (protobuf, length-delimited)"
                "\n  station/report.{txt,json,csv}  bandwidth report"
                "\n  <robot>/agent.log, station/station.log  process logs\n";

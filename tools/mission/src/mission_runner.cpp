@@ -18,6 +18,7 @@
 #include "keyfleet/mission/child_process.hpp"
 #include "keyfleet/scenario/scenario_config.hpp"
 #include "keyfleet/scenario/scenario_generator.hpp"
+#include "keyfleet/station/web/html_report.hpp"
 
 namespace keyfleet::mission {
 namespace {
@@ -51,6 +52,14 @@ std::map<std::string, std::int64_t> stored_per_robot(const fs::path& database) {
     // The station may still be creating its schema: no progress figure this time.
   }
   return counts;
+}
+
+// The URL the station's dashboard serves at, once the station has written it.
+std::string dashboard_url(const fs::path& station_dir) {
+  std::ifstream in(station_dir / "dashboard.url");
+  std::string url;
+  std::getline(in, url);
+  return url;
 }
 
 std::string failure_line(const ChildProcess& child, const ExitStatus& status) {
@@ -91,6 +100,19 @@ std::vector<std::string> MissionRunner::command(const std::string& process,
   std::vector<std::string> full = hooks_.command_prefix(process);
   full.insert(full.end(), argv.begin(), argv.end());
   return full;
+}
+
+void MissionRunner::write_report_html(const fs::path& run_dir, MissionResult& result) const {
+  const fs::path database = run_dir / "station" / config_.station.database;
+  if (!fs::exists(database)) return;
+  station::web::HtmlReportInputs inputs{run_dir.filename().string(), database.string(),
+                                        result.scenario_dir, result.report_table};
+  try {
+    station::web::write_html_report(inputs, (run_dir / "report.html").string());
+    result.report_html = (run_dir / "report.html").string();
+  } catch (const std::exception& e) {
+    result.failures.push_back("report.html not written: " + std::string(e.what()));
+  }
 }
 
 MissionResult MissionRunner::run(const StopToken& stop) {
@@ -162,6 +184,14 @@ MissionResult MissionRunner::run(const StopToken& stop) {
         (agent_dir / "agent.log").string()));
   }
 
+  // The station writes its dashboard's address once it serves it.
+  auto note_dashboard = [&] {
+    if (!result.dashboard_url.empty() || !config_.station.dashboard.enabled) return;
+    result.dashboard_url = dashboard_url(station_dir);
+    if (!result.dashboard_url.empty())
+      progress_ << "dashboard: " << result.dashboard_url << "\n" << std::flush;
+  };
+
   // Wait for the agents, reporting progress, failing fast if the station dies.
   const auto start = Clock::now();
   const auto deadline = start + std::chrono::duration_cast<Clock::duration>(
@@ -196,6 +226,7 @@ MissionResult MissionRunner::run(const StopToken& stop) {
       }
       break;
     }
+    note_dashboard();
     if (Clock::now() >= next_progress) {
       const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
       progress_ << "[" << static_cast<int>(elapsed) << " s] stored:";
@@ -221,6 +252,7 @@ MissionResult MissionRunner::run(const StopToken& stop) {
 
   // Let the station drain, then stop it and take its report.
   if (!station_died) {
+    note_dashboard();
     station.signal(SIGTERM);
     const auto drained =
         std::chrono::milliseconds(static_cast<long>(config_.station_drain_timeout_s * 1000));
@@ -238,6 +270,7 @@ MissionResult MissionRunner::run(const StopToken& stop) {
   std::stringstream table;
   table << report.rdbuf();
   result.report_table = table.str();
+  write_report_html(run_dir, result);
   result.ok = result.failures.empty();
   return result;
 }

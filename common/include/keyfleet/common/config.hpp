@@ -261,10 +261,28 @@ struct AnalysisConfig {
   PlaceRecognitionConfig places;
 };
 
+// The station's live dashboard: a read-only web page served over HTTP while the station runs
+// (ground_station/web). The URL it serves at is logged and written to <run>/dashboard.url.
+struct DashboardConfig {
+  bool enabled = true;
+  // Loopback by default; any other address (e.g. 0.0.0.0) needs `token`, which every request
+  // then carries (?token=... or an "Authorization: Bearer ..." header).
+  std::string address = "127.0.0.1";
+  int port = 0;  // 0 = a free port chosen at start
+  std::string token;
+  double update_period_s = 0.5;   // how often connected pages are sent the station's counters
+  int thumbnails_per_robot = 24;  // latest keyframes shown per robot
+  int threads = 4;                // HTTP worker threads (each open live page holds one)
+};
+
+// True for 127.0.0.0/8, ::1 and "localhost": addresses only this machine reaches.
+bool is_loopback_address(const std::string& address);
+
 struct StationConfig {
   DdsSettings dds;
   StationLimits limits;
   AnalysisConfig analysis;
+  DashboardConfig dashboard;
   std::string database = "station.sqlite";  // relative to the run directory
   std::string mission_log = "mission_log.pb";
   double report_period_s = 5.0;  // live bandwidth line in the log

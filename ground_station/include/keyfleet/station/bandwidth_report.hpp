@@ -46,6 +46,21 @@ std::string format_table(const BandwidthReport& report);
 std::string to_json(const BandwidthReport& report);
 std::string to_csv(const BandwidthReport& report);
 
+// Bytes over time for one robot: what the station received (cumulative, at its receive times)
+// against the two baselines as the robot had counted them (at its stats reports).
+struct BandwidthPoint {
+  std::int64_t time_ns = 0;
+  std::uint64_t bytes = 0;
+};
+struct BandwidthSeries {
+  std::string robot_id;
+  std::vector<BandwidthPoint> received, stream_all, vslam_keyframes;
+};
+
+// One series per robot that sent keyframes or stats, by robot id.
+std::vector<BandwidthSeries> build_bandwidth_timeline(
+    const std::vector<StoredKeyframeInfo>& keyframes, const std::vector<StatsSample>& stats);
+
 // Writes report.json and report.csv into `run_dir`; returns the table text.
 std::string write_bandwidth_report(const BandwidthReport& report, const std::string& run_dir);
 

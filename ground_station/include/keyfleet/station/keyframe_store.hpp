@@ -27,6 +27,19 @@ struct StoredKeyframeInfo {
   std::uint64_t sequence = 0;
   std::int64_t capture_time_ns = 0;
   std::optional<Pose> pose;
+  std::uint64_t frame_index = 0;  // in the robot's camera stream
+  std::int64_t received_ns = 0;
+  std::uint64_t serialized_bytes = 0;
+  std::uint32_t width = 0, height = 0;
+};
+
+// One stats sample of a robot, as it arrived: the baselines it had counted by then.
+struct StatsSample {
+  std::string robot_id;
+  std::int64_t report_time_ns = 0;  // the agent's clock
+  std::uint64_t frames_seen = 0;
+  std::uint64_t stream_all_bytes = 0;
+  std::uint64_t vslam_keyframe_bytes = 0;
 };
 
 // The station's durable store: one SQLite file (WAL) with every keyframe (JPEG and
@@ -47,12 +60,16 @@ class KeyframeStore {
   std::vector<RobotTotals> totals() const;
   std::uint64_t keyframe_count() const;
   std::vector<StoredKeyframeInfo> keyframe_index() const;  // oldest received first
+  // Every stats sample received, per robot in time order; empty for databases written before
+  // the history was kept.
+  std::vector<StatsSample> stats_history() const;
   std::optional<Keyframe> load(const std::string& robot_id, std::uint64_t sequence) const;
   const std::string& path() const { return db_.path(); }
 
  private:
   mutable SqliteDb db_;
-  bool has_text_regions_ = true;  // false in a read-only database written before them
+  bool has_text_regions_ = true;   // false in a read-only database written before them
+  bool has_stats_history_ = true;  // likewise
 };
 
 }  // namespace keyfleet::station

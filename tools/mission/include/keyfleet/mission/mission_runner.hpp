@@ -1,4 +1,5 @@
 #pragma once
+#include <filesystem>
 #include <functional>
 #include <ostream>
 #include <string>
@@ -21,6 +22,8 @@ struct MissionResult {
   std::string run_dir;
   std::string report_table;           // the station's bandwidth report
   std::string scenario_dir;           // the scenario replayed, when there was one
+  std::string dashboard_url;          // the station's live dashboard, when it served one
+  std::string report_html;            // <run_dir>/report.html, when written
   std::vector<std::string> failures;  // one line per failed process, saying why
 };
 
@@ -45,6 +48,8 @@ class MissionRunner {
 
  private:
   std::vector<std::string> command(const std::string& process, std::vector<std::string> argv) const;
+  // report.html from the station's database (and the scenario's ground truth).
+  void write_report_html(const std::filesystem::path& run_dir, MissionResult& result) const;
 
   MissionHooks hooks_;
   MissionConfig config_;

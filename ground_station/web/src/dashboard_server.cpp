@@ -1,0 +1,243 @@
+#include "keyfleet/station/web/dashboard_server.hpp"
+
+#include <httplib.h>
+
+#include "assets.hpp"
+#include "keyfleet/common/error.hpp"
+#include "keyfleet/station/web/figures.hpp"
+#include "keyfleet/station/web/run_view.hpp"
+
+namespace keyfleet::station::web {
+namespace {
+
+using std::chrono::milliseconds;
+
+std::string content_type_of(const std::string& path) {
+  if (path.size() > 4 && path.compare(path.size() - 4, 4, ".css") == 0) return "text/css";
+  if (path.size() > 3 && path.compare(path.size() - 3, 3, ".js") == 0)
+    return "application/javascript";
+  return "text/html; charset=utf-8";
+}
+
+nlohmann::json word_json(const StoredWord& w) {
+  return {{"robot_id", w.keyframe.robot_id},
+          {"sequence", w.keyframe.sequence},
+          {"text", w.text},
+          {"confidence", w.confidence},
+          {"box", {w.box.x, w.box.y, w.box.width, w.box.height}}};
+}
+
+std::string image_href(const StoredKeyframeInfo& k) {
+  return "api/image?robot=" + k.robot_id + "&sequence=" + std::to_string(k.sequence);
+}
+
+nlohmann::json card_json(const KeyframeCard& card) {
+  nlohmann::json words = nlohmann::json::array();
+  for (const StoredWord& w : card.words) words.push_back(word_json(w));
+  return {{"robot_id", card.info.robot_id},
+          {"sequence", card.info.sequence},
+          {"capture_time_ns", card.info.capture_time_ns},
+          {"received_ns", card.info.received_ns},
+          {"words", words},
+          {"figure", keyframe_figure(card, image_href(card.info))}};
+}
+
+std::size_t size_param(const httplib::Request& req, const char* name, std::size_t fallback,
+                       std::size_t most) {
+  if (!req.has_param(name)) return fallback;
+  try {
+    return std::min<std::size_t>(std::stoul(req.get_param_value(name)), most);
+  } catch (const std::exception&) {
+    return fallback;
+  }
+}
+
+void send_json(httplib::Response& res, const nlohmann::json& doc) {
+  res.set_content(doc.dump(), "application/json");
+}
+
+void send_error(httplib::Response& res, int status, const std::string& message) {
+  res.status = status;
+  send_json(res, {{"error", message}});
+}
+
+}  // namespace
+
+DashboardServer::DashboardServer(const DashboardConfig& config, const std::string& database,
+                                 LiveQueue live, Logger logger)
+    : config_(config), live_(std::move(live)), logger_(std::move(logger)) {
+  if (!is_loopback_address(config_.address) && config_.token.empty())
+    throw StartupError("dashboard: a token is required to serve on " + config_.address);
+  try {
+    view_ = std::make_unique<RunView>(database);
+  } catch (const std::exception& e) {
+    throw StartupError("dashboard: cannot open " + database + ": " + e.what());
+  }
+  server_ = std::make_unique<httplib::Server>();
+  const int threads = config_.threads;
+  server_->new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
+  server_->set_keep_alive_timeout(1);
+  add_routes();
+  port_ = config_.port == 0
+              ? server_->bind_to_any_port(config_.address)
+              : (server_->bind_to_port(config_.address, config_.port) ? config_.port : -1);
+  if (port_ <= 0)
+    throw StartupError("dashboard: cannot listen on " + config_.address + ":" +
+                       std::to_string(config_.port) + " (address in use or not on this host)");
+  listener_ = std::thread([this] { server_->listen_after_bind(); });
+  publisher_ = std::thread([this] { publish_loop(); });
+}
+
+DashboardServer::~DashboardServer() { stop(); }
+
+std::string DashboardServer::url() const {
+  const std::string host = config_.address == "0.0.0.0" ? "127.0.0.1" : config_.address;
+  return "http://" + host + ":" + std::to_string(port_) + "/" +
+         (config_.token.empty() ? "" : "?token=" + config_.token);
+}
+
+void DashboardServer::poke() {
+  {
+    std::lock_guard<std::mutex> lock(poke_mutex_);
+    poke_ = true;
+  }
+  poked_.notify_one();
+}
+
+void DashboardServer::stop() {
+  if (stopping_.exchange(true)) return;
+  events_.close();
+  poke();
+  if (publisher_.joinable()) publisher_.join();
+  server_->stop();
+  if (listener_.joinable()) listener_.join();
+}
+
+bool DashboardServer::authorised(const std::string& token_param,
+                                 const std::string& authorization) const {
+  if (config_.token.empty()) return true;
+  return token_param == config_.token || authorization == "Bearer " + config_.token;
+}
+
+// While a page is open: recomputes the summary every update period, or at once when poked;
+// pages get it when it changed. With no page open the station pays nothing for it.
+void DashboardServer::publish_loop() {
+  const auto period = milliseconds(static_cast<long>(config_.update_period_s * 1000));
+  while (!stopping_) {
+    try {
+      if (listeners_ > 0) publish_summary();
+    } catch (const std::exception& e) {
+      logger_->warn("dashboard: summary not updated: {}", e.what());
+    }
+    std::unique_lock<std::mutex> lock(poke_mutex_);
+    poked_.wait_for(lock, period, [this] { return poke_ || stopping_; });
+    poke_ = false;
+  }
+}
+
+void DashboardServer::publish_summary() {
+  const auto live = live_ ? live_() : std::nullopt;
+  std::string summary;
+  {
+    std::lock_guard<std::mutex> lock(view_mutex_);
+    summary = view_->summary(live).dump();
+  }
+  events_.publish(std::move(summary));
+}
+
+void DashboardServer::add_routes() {
+  httplib::Server& s = *server_;
+  s.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    if (authorised(req.get_param_value("token"), req.get_header_value("Authorization")))
+      return httplib::Server::HandlerResponse::Unhandled;
+    send_error(res, 401, "this dashboard needs its token: open it with ?token=...");
+    return httplib::Server::HandlerResponse::Handled;
+  });
+  for (const auto& [path, content] : page_assets()) {
+    const std::string type = content_type_of(path);
+    const std::string* body = &content;
+    auto handler = [body, type](const httplib::Request&, httplib::Response& res) {
+      res.set_content(*body, type.c_str());
+    };
+    s.Get(path == "/dashboard.html" ? "/" : path, handler);
+  }
+  // Every data handler reads through the one connection, and never lets an exception out.
+  auto guarded = [this](auto body) {
+    return [this, body](const httplib::Request& req, httplib::Response& res) {
+      try {
+        std::lock_guard<std::mutex> lock(view_mutex_);
+        body(req, res);
+      } catch (const std::exception& e) {
+        send_error(res, 500, e.what());
+      }
+    };
+  };
+  s.Get("/api/summary", guarded([this](const httplib::Request&, httplib::Response& res) {
+          send_json(res, view_->summary(live_ ? live_() : std::nullopt));
+        }));
+  s.Get("/api/keyframes", guarded([this](const httplib::Request& req, httplib::Response& res) {
+          const std::string robot = req.get_param_value("robot");
+          if (robot.empty()) return send_error(res, 400, "robot=ROBOT is required");
+          const std::size_t limit =
+              size_param(req, "limit", std::size_t(config_.thumbnails_per_robot), 1000);
+          nlohmann::json list = nlohmann::json::array();
+          for (const KeyframeCard& card : view_->keyframes(robot, std::max<std::size_t>(limit, 1)))
+            list.push_back(card_json(card));
+          send_json(res, {{"robot_id", robot}, {"keyframes", list}});
+        }));
+  s.Get("/api/image", guarded([this](const httplib::Request& req, httplib::Response& res) {
+          KeyframeKey key{req.get_param_value("robot"), 0};
+          try {
+            key.sequence = std::stoull(req.get_param_value("sequence"));
+          } catch (const std::exception&) {
+            return send_error(res, 400, "sequence=N is required");
+          }
+          const auto jpeg = view_->jpeg(key);
+          if (!jpeg) return send_error(res, 404, "no keyframe " + to_string(key));
+          res.set_header("Cache-Control", "max-age=86400");  // stored keyframes never change
+          res.set_content(reinterpret_cast<const char*>(jpeg->data()), jpeg->size(), "image/jpeg");
+        }));
+  s.Get("/api/search", guarded([this](const httplib::Request& req, httplib::Response& res) {
+          const std::string query = req.get_param_value("q");
+          if (query.empty()) return send_error(res, 400, "q=WORD is required");
+          std::vector<StoredWord> words;
+          try {
+            words = view_->search(query, size_param(req, "limit", 50, 500));
+          } catch (const std::exception&) {
+            return send_error(res, 400, "not a valid search (FTS5 syntax): " + query);
+          }
+          nlohmann::json results = nlohmann::json::array();
+          for (const StoredWord& w : words) results.push_back(word_json(w));
+          send_json(res, {{"query", query}, {"results", results}});
+        }));
+  s.Get("/api/map", guarded([this](const httplib::Request&, httplib::Response& res) {
+          send_json(res, view_->map());
+        }));
+  s.Get("/api/map.svg", guarded([this](const httplib::Request&, httplib::Response& res) {
+          res.set_content(map_svg(view_->map()), "image/svg+xml");
+        }));
+  s.Get("/api/bandwidth.svg", guarded([this](const httplib::Request&, httplib::Response& res) {
+          res.set_content(bandwidth_svg(view_->bandwidth_timeline()), "image/svg+xml");
+        }));
+  s.Get("/api/events", [this](const httplib::Request&, httplib::Response& res) {
+    res.set_header("Cache-Control", "no-cache");
+    auto last = std::make_shared<std::uint64_t>(0);
+    ++listeners_;
+    poke();  // a fresh summary for the new page
+    res.set_chunked_content_provider(
+        "text/event-stream",
+        [this, last](std::size_t, httplib::DataSink& sink) {
+          const auto event = events_.next(*last, milliseconds(15000));
+          if (events_.closed()) return false;
+          // A comment line keeps idle connections (and proxies) open.
+          const std::string text = event ? "id: " + std::to_string(event->id) +
+                                               "\nevent: summary\ndata: " + event->data + "\n\n"
+                                         : std::string(": idle\n\n");
+          if (event) *last = event->id;
+          return sink.write(text.data(), text.size());
+        },
+        [this](bool) { --listeners_; });
+  });
+}
+
+}  // namespace keyfleet::station::web
