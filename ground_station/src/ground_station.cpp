@@ -19,7 +19,11 @@ void GroundStation::note_robot(const std::string& robot_id) {
 KeyframeAck GroundStation::handle(const ReceivedKeyframe& received, std::int64_t now_ns) {
   const Keyframe& k = received.keyframe;
   KeyframeAck ack{k.robot_id, k.sequence_number, AckStatus::kStored, {}};
-  if (auto problem = find_keyframe_problem(k, limits_, codec_)) {
+  auto problem = find_keyframe_problem(k, limits_, codec_);
+  if (!problem && !received.sender.empty() && received.sender != k.robot_id)
+    problem = "robot id '" + k.robot_id + "' is not its writer's, '" +
+              printable_text(received.sender) + "'";
+  if (problem) {
     ack.status = AckStatus::kRejected;
     ack.reason = *problem;
     // The id is recorded as printable text: raw bytes that are not UTF-8 would stop the JSON
