@@ -21,6 +21,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev googletest
   libbenchmark-dev
   procps
+  openssl
   iproute2
   python3-torch python3-onnx python3-opencv python3-numpy
   python3-matplotlib

@@ -156,6 +156,12 @@ void resolve_relative_to(const std::string& config_path, std::string& path) {
 // --- The descriptions: one per struct, used by both visitors. -------------------------
 
 template <class V>
+void visit(V& v, DdsSecurity& c) {
+  v.field("enabled", c.enabled);
+  v.field("directory", c.directory);
+}
+
+template <class V>
 void visit(V& v, DdsSettings& c) {
   v.field("domain_id", c.domain_id, between(0, 232));
   v.field("partition", c.partition, Check<std::string>([](const std::string& s) {
@@ -169,6 +175,7 @@ void visit(V& v, DdsSettings& c) {
   v.field("keyframe_history_depth", c.keyframe_history_depth, between(1, 1000));
   v.field("heartbeat_period_s", c.heartbeat_period_s, positive());
   v.field("max_bytes_per_s", c.max_bytes_per_s, between<std::uint64_t>(0, 100000000000ULL));
+  v.section("security", c.security);
 }
 
 template <class V>
@@ -364,7 +371,13 @@ template void visit(ConfigWriter&, CodecConfig&);
 template void visit(ConfigReader&, TextReadingConfig&);
 template void visit(ConfigWriter&, TextReadingConfig&);
 
+void validate(const DdsSettings& dds, const std::string& origin) {
+  if (dds.security.enabled && dds.security.directory.empty())
+    throw ConfigError(origin + ": dds.security.directory: required when dds.security.enabled");
+}
+
 void validate(const AgentConfig& c, const std::string& origin) {
+  validate(c.dds, origin);
   const auto strategy = c.selector.strategy;
   const bool needs_model = strategy == SelectorConfig::Strategy::kSemantic ||
                            strategy == SelectorConfig::Strategy::kFull;
@@ -381,6 +394,7 @@ void validate(const AgentConfig& c, const std::string& origin) {
 }
 
 void validate(const StationConfig& c, const std::string& origin) {
+  validate(c.dds, origin);
   const DashboardConfig& d = c.dashboard;
   if (d.enabled && !is_loopback_address(d.address) && d.token.empty())
     throw ConfigError(origin + ": dashboard.token: required when dashboard.address (" + d.address +
@@ -404,10 +418,14 @@ StationConfig parse_station_config(const std::string& text, const std::string& o
   return parse_config<StationConfig>(text, origin);
 }
 AgentConfig load_agent_config(const std::string& path) {
-  return parse_agent_config(read_config_file(path), path);
+  AgentConfig config = parse_agent_config(read_config_file(path), path);
+  resolve_relative_to(path, config.dds.security.directory);
+  return config;
 }
 StationConfig load_station_config(const std::string& path) {
-  return parse_station_config(read_config_file(path), path);
+  StationConfig config = parse_station_config(read_config_file(path), path);
+  resolve_relative_to(path, config.dds.security.directory);
+  return config;
 }
 std::string to_yaml(const AgentConfig& config) { return emit_config(config); }
 std::string to_yaml(const StationConfig& config) { return emit_config(config); }

@@ -7,6 +7,7 @@ const char* to_string(AckStatus status) {
     case AckStatus::kStored: return "stored";
     case AckStatus::kDuplicate: return "duplicate";
     case AckStatus::kRejected: return "rejected";
+    case AckStatus::kConflict: return "conflict";
   }
   return "unknown";
 }

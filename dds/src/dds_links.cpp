@@ -1,10 +1,17 @@
 // AgentLink and StationLink over Fast DDS: the only place that moves bytes on the wire.
+#include <fastdds/dds/core/condition/GuardCondition.hpp>
 #include <fastdds/dds/core/condition/WaitSet.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
+
+#include <mutex>
+#include <set>
+#include <string>
+#include <vector>
 
 #include "dds_participant.hpp"
 #include "dds_wire_conversion.hpp"
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/common/printable_text.hpp"
 #include "keyfleet/dds/dds_transport.hpp"
 #include "keyfleetPubSubTypes.h"
 
@@ -20,8 +27,9 @@ Duration_t to_duration(std::chrono::milliseconds ms) {
   return Duration_t(static_cast<long double>(ms.count()) / 1000.0L);
 }
 
-// Waits until one of `readers` has unread data, or `wait` passes.
-void wait_for_data(fdds::WaitSet& waitset, std::initializer_list<fdds::DataReader*> readers,
+// Waits until one of `readers` has unread data, or `wait` passes (or another condition of the
+// waitset triggers).
+void wait_for_data(fdds::WaitSet& waitset, const std::vector<fdds::DataReader*>& readers,
                    std::chrono::milliseconds wait) {
   for (auto* reader : readers)
     if (reader->get_unread_count() > 0) return;
@@ -32,15 +40,15 @@ void wait_for_data(fdds::WaitSet& waitset, std::initializer_list<fdds::DataReade
 
 class DdsAgentLink final : public AgentLink {
  public:
-  DdsAgentLink(const DdsSettings& settings, Logger logger)
-      : participant_(settings, "keyfleet_agent", std::move(logger)),
+  DdsAgentLink(const DdsSettings& settings, const std::string& robot_id, Logger logger)
+      : participant_(settings, "keyfleet_agent", robot_id, std::move(logger)),
         keyframe_type_(new wire::KeyframePubSubType()),
         stats_type_(new wire::AgentStatsPubSubType()),
         ack_type_(new wire::KeyframeAckPubSubType()) {
-    keyframe_writer_ =
-        participant_.writer(participant_.topic(kKeyframeTopic, keyframe_type_), Stream::kKeyframes);
-    stats_writer_ =
-        participant_.writer(participant_.topic(kAgentStatsTopic, stats_type_), Stream::kStats);
+    keyframe_writer_ = participant_.writer(
+        participant_.topic(kKeyframeTopicPrefix + robot_id, keyframe_type_), Stream::kKeyframes);
+    stats_writer_ = participant_.writer(
+        participant_.topic(kAgentStatsTopicPrefix + robot_id, stats_type_), Stream::kStats);
     ack_reader_ =
         participant_.reader(participant_.topic(kKeyframeAckTopic, ack_type_), Stream::kAcks);
     waitset_.attach_condition(ack_reader_->get_statuscondition());
@@ -108,37 +116,85 @@ class DdsAgentLink final : public AgentLink {
   wire::AgentStats stats_sample_;
 };
 
+// Hears the robots' keyframe and stats writers being discovered; the station link subscribes to
+// their topics from its own thread (Fast DDS entities are not created inside its callbacks).
+class RobotTopicDiscovery final : public fdds::DomainParticipantListener {
+ public:
+  void on_publisher_discovery(fdds::DomainParticipant*,
+                              eprosima::fastrtps::rtps::WriterDiscoveryInfo&& info) override {
+    if (info.status != eprosima::fastrtps::rtps::WriterDiscoveryInfo::DISCOVERED_WRITER) return;
+    const std::string topic = info.info.topicName().to_string();
+    for (const std::string prefix : {kKeyframeTopicPrefix, kAgentStatsTopicPrefix})
+      if (topic.size() > prefix.size() && topic.compare(0, prefix.size(), prefix) == 0) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (robots_.size() < kMaxRobotTopics)
+          robots_.insert(topic.substr(prefix.size()));
+        else
+          refused_ = true;
+        wake_.set_trigger_value(true);
+      }
+  }
+
+  // Robots announced so far; `refused` tells whether some were over the bound.
+  std::set<std::string> robots(bool& refused) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    wake_.set_trigger_value(false);
+    refused = refused_;
+    return robots_;
+  }
+
+  fdds::GuardCondition& wake() { return wake_; }
+
+  // Readers of announced robots, at most: a peer announcing topics without end fills no memory.
+  static constexpr std::size_t kMaxRobotTopics = 1024;
+
+ private:
+  std::mutex mutex_;
+  std::set<std::string> robots_;
+  bool refused_ = false;
+  fdds::GuardCondition wake_;
+};
+
 class DdsStationLink final : public StationLink {
  public:
   DdsStationLink(const DdsSettings& settings, Logger logger)
-      : participant_(settings, "keyfleet_station", std::move(logger)),
+      : logger_(logger),
+        participant_(settings, "keyfleet_station", kStationIdentity, std::move(logger),
+                     &discovery_),
         keyframe_type_(new wire::KeyframePubSubType()),
         stats_type_(new wire::AgentStatsPubSubType()),
         ack_type_(new wire::KeyframeAckPubSubType()) {
-    keyframe_reader_ =
-        participant_.reader(participant_.topic(kKeyframeTopic, keyframe_type_), Stream::kKeyframes);
-    stats_reader_ =
-        participant_.reader(participant_.topic(kAgentStatsTopic, stats_type_), Stream::kStats);
     ack_writer_ =
         participant_.writer(participant_.topic(kKeyframeAckTopic, ack_type_), Stream::kAcks);
-    waitset_.attach_condition(keyframe_reader_->get_statuscondition());
-    waitset_.attach_condition(stats_reader_->get_statuscondition());
+    waitset_.attach_condition(discovery_.wake());
   }
 
   StationInbox take(std::chrono::milliseconds wait, std::size_t max_keyframes) override {
-    wait_for_data(waitset_, {keyframe_reader_, stats_reader_}, wait);
+    subscribe_new_robots();
+    wait_for_data(waitset_, readers_, wait);
+    subscribe_new_robots();
     StationInbox inbox;
     fdds::SampleInfo info;
-    while (inbox.keyframes.size() < max_keyframes &&
-           keyframe_reader_->take_next_sample(&keyframe_sample_, &info) ==
-               ReturnCode_t::RETCODE_OK) {
-      if (!info.valid_data) continue;
-      const std::uint64_t bytes = keyframe_type_->getSerializedSizeProvider(&keyframe_sample_)();
-      inbox.keyframes.push_back({dds::from_wire(std::move(keyframe_sample_)), bytes});
-    }
-    wire::AgentStats stats;
-    while (stats_reader_->take_next_sample(&stats, &info) == ReturnCode_t::RETCODE_OK) {
-      if (info.valid_data) inbox.stats.push_back(dds::from_wire(stats));
+    for (auto& robot : robots_) {
+      while (inbox.keyframes.size() < max_keyframes &&
+             robot.keyframes->take_next_sample(&keyframe_sample_, &info) ==
+                 ReturnCode_t::RETCODE_OK) {
+        if (!info.valid_data) continue;
+        const std::uint64_t bytes = keyframe_type_->getSerializedSizeProvider(&keyframe_sample_)();
+        inbox.keyframes.push_back(
+            {dds::from_wire(std::move(keyframe_sample_)), bytes, robot.robot_id});
+      }
+      wire::AgentStats stats;
+      while (robot.stats->take_next_sample(&stats, &info) == ReturnCode_t::RETCODE_OK) {
+        if (!info.valid_data) continue;
+        if (stats.robot_id() != robot.robot_id) {
+          if (robot.warned_stats.insert(stats.robot_id()).second)
+            logger_->error("ignored agent stats claiming robot id '{}' on robot '{}''s topic",
+                           printable_text(stats.robot_id(), 64), printable_text(robot.robot_id));
+          continue;
+        }
+        inbox.stats.push_back(dds::from_wire(stats));
+      }
     }
     return inbox;
   }
@@ -153,18 +209,57 @@ class DdsStationLink final : public StationLink {
   }
 
   std::size_t matched_agents() const override {
-    fdds::SubscriptionMatchedStatus status;
-    keyframe_reader_->get_subscription_matched_status(status);
-    return static_cast<std::size_t>(status.current_count);
+    std::size_t matched = 0;
+    for (const auto& robot : robots_) {
+      fdds::SubscriptionMatchedStatus status;
+      robot.keyframes->get_subscription_matched_status(status);
+      matched += static_cast<std::size_t>(status.current_count);
+    }
+    return matched;
   }
 
  private:
+  struct RobotReaders {
+    std::string robot_id;
+    fdds::DataReader* keyframes = nullptr;
+    fdds::DataReader* stats = nullptr;
+    std::set<std::string> warned_stats;
+  };
+
+  void subscribe_new_robots() {
+    bool refused = false;
+    for (const auto& robot_id : discovery_.robots(refused)) {
+      if (!subscribed_.insert(robot_id).second) continue;
+      RobotReaders readers{robot_id};
+      readers.keyframes = participant_.reader(
+          participant_.topic(kKeyframeTopicPrefix + robot_id, keyframe_type_), Stream::kKeyframes);
+      readers.stats = participant_.reader(
+          participant_.topic(kAgentStatsTopicPrefix + robot_id, stats_type_), Stream::kStats);
+      waitset_.attach_condition(readers.keyframes->get_statuscondition());
+      waitset_.attach_condition(readers.stats->get_statuscondition());
+      readers_.push_back(readers.keyframes);
+      readers_.push_back(readers.stats);
+      robots_.push_back(std::move(readers));
+      logger_->debug("subscribed to robot '{}''s keyframes and stats",
+                     printable_text(robot_id, 64));
+    }
+    if (refused && !warned_refused_) {
+      warned_refused_ = true;
+      logger_->error("more than {} robots announced keyframe topics: the others are not read",
+                     RobotTopicDiscovery::kMaxRobotTopics);
+    }
+  }
+
+  Logger logger_;
+  RobotTopicDiscovery discovery_;
   Participant participant_;
   fdds::TypeSupport keyframe_type_;
   fdds::TypeSupport stats_type_;
   fdds::TypeSupport ack_type_;
-  fdds::DataReader* keyframe_reader_ = nullptr;
-  fdds::DataReader* stats_reader_ = nullptr;
+  std::vector<RobotReaders> robots_;
+  std::vector<fdds::DataReader*> readers_;
+  std::set<std::string> subscribed_;
+  bool warned_refused_ = false;
   fdds::DataWriter* ack_writer_ = nullptr;
   fdds::WaitSet waitset_;
   wire::Keyframe keyframe_sample_;
@@ -173,8 +268,9 @@ class DdsStationLink final : public StationLink {
 
 }  // namespace
 
-std::unique_ptr<AgentLink> make_dds_agent_link(const DdsSettings& settings, Logger logger) {
-  return std::make_unique<DdsAgentLink>(settings, std::move(logger));
+std::unique_ptr<AgentLink> make_dds_agent_link(const DdsSettings& settings,
+                                               const std::string& robot_id, Logger logger) {
+  return std::make_unique<DdsAgentLink>(settings, robot_id, std::move(logger));
 }
 
 std::unique_ptr<StationLink> make_dds_station_link(const DdsSettings& settings, Logger logger) {

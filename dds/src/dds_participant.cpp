@@ -12,13 +12,17 @@
 #include <netinet/in.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <limits>
 #include <vector>
 
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/common/security_files.hpp"
 
 namespace keyfleet::dds {
 namespace {
+
+namespace fs = std::filesystem;
 
 using eprosima::fastrtps::Duration_t;
 using eprosima::fastrtps::rtps::IPLocator;
@@ -56,9 +60,13 @@ std::vector<std::string> non_loopback_ipv4_addresses() {
   return addresses;
 }
 
-fdds::DomainParticipantQos participant_qos(const DdsSettings& s, const std::string& name) {
+fdds::DomainParticipantQos participant_qos(const DdsSettings& s, const std::string& name,
+                                           const std::string& identity) {
   fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
   qos.name(name);
+  if (s.security.enabled)
+    for (auto& [key, value] : security_properties(s, identity))
+      qos.properties().properties().emplace_back(key, value);
   auto& discovery = qos.wire_protocol().builtin.discovery_config;
   discovery.leaseDuration = Duration_t(static_cast<long double>(s.lease_duration_s));
   discovery.leaseDuration_announcementperiod =
@@ -110,14 +118,43 @@ fdds::DomainParticipantQos participant_qos(const DdsSettings& s, const std::stri
 
 }  // namespace
 
-Participant::Participant(const DdsSettings& settings, const std::string& name, Logger logger)
+std::vector<std::pair<std::string, std::string>> security_properties(const DdsSettings& settings,
+                                                                     const std::string& identity) {
+  const fs::path dir = settings.security.directory;
+  const SecurityFiles files = security_files(dir.string(), identity);
+  for (const auto& path :
+       {files.ca, files.governance, files.certificate, files.private_key, files.permissions})
+    if (!fs::is_regular_file(path))
+      throw StartupError("dds.security: no file " + path + " (made by `keyfleet security init " +
+                         "--out " + dir.string() + "` for identity '" + identity + "')");
+  const std::string auth = "dds.sec.auth.builtin.PKI-DH.";
+  const std::string access = "dds.sec.access.builtin.Access-Permissions.";
+  return {{"dds.sec.auth.plugin", "builtin.PKI-DH"},
+          {auth + "identity_ca", "file://" + files.ca},
+          {auth + "identity_certificate", "file://" + files.certificate},
+          {auth + "private_key", "file://" + files.private_key},
+          {"dds.sec.access.plugin", "builtin.Access-Permissions"},
+          {access + "permissions_ca", "file://" + files.ca},
+          {access + "governance", "file://" + files.governance},
+          {access + "permissions", "file://" + files.permissions},
+          {"dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC"}};
+}
+
+Participant::Participant(const DdsSettings& settings, const std::string& name,
+                         const std::string& identity, Logger logger,
+                         fdds::DomainParticipantListener* listener)
     : settings_(settings), logger_(std::move(logger)) {
   auto* factory = fdds::DomainParticipantFactory::get_instance();
   participant_ = factory->create_participant(static_cast<fdds::DomainId_t>(settings.domain_id),
-                                             participant_qos(settings, name));
+                                             participant_qos(settings, name, identity), listener,
+                                             fdds::StatusMask::none());
   if (!participant_)
-    throw StartupError("cannot create DDS participant on domain " +
-                       std::to_string(settings.domain_id) + " (see the Fast DDS errors above)");
+    throw StartupError(
+        "cannot create DDS participant on domain " + std::to_string(settings.domain_id) +
+        (settings.security.enabled
+             ? " with DDS-Security identity '" + identity + "' from " + settings.security.directory
+             : std::string()) +
+        " (see the Fast DDS errors above)");
   fdds::PublisherQos pub_qos = fdds::PUBLISHER_QOS_DEFAULT;
   pub_qos.partition().push_back(settings.partition.c_str());
   publisher_ = participant_->create_publisher(pub_qos);
@@ -129,11 +166,12 @@ Participant::Participant(const DdsSettings& settings, const std::string& name, L
     throw StartupError("cannot create DDS publisher/subscriber for partition '" +
                        settings.partition + "'");
   }
-  logger_->info("DDS participant '{}' on domain {} partition '{}' ({})", name, settings.domain_id,
+  logger_->info("DDS participant '{}' on domain {} partition '{}' ({}{})", name, settings.domain_id,
                 settings.partition,
                 settings.transport == DdsSettings::Transport::kLocalhost ? "localhost only"
                 : settings.shared_memory                                 ? "network"
-                                                                         : "network, UDPv4 only");
+                                                                         : "network, UDPv4 only",
+                settings.security.enabled ? "; DDS-Security as '" + identity + "'" : std::string());
   if (settings.max_bytes_per_s > 0)
     logger_->info("keyframe writer capped at {} bytes/s (flow controller, {} ms periods)",
                   settings.max_bytes_per_s, kLinkCapPeriodMs);
@@ -146,11 +184,13 @@ Participant::~Participant() {
 }
 
 fdds::Topic* Participant::topic(const std::string& name, fdds::TypeSupport type) {
+  if (auto it = topics_.find(name); it != topics_.end()) return it->second;
   if (type.register_type(participant_) != ReturnCode_t::RETCODE_OK)
     throw StartupError("cannot register DDS type " + type.get_type_name());
   fdds::Topic* topic =
       participant_->create_topic(name, type.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
   if (!topic) throw StartupError("cannot create DDS topic " + name);
+  topics_.emplace(name, topic);
   return topic;
 }
 

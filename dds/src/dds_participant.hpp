@@ -1,6 +1,7 @@
 #pragma once
 // One DomainParticipant with keyfleet's QoS, owning every entity it creates. Internal.
 #include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/domain/DomainParticipantListener.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
 #include <fastdds/dds/subscriber/DataReader.hpp>
@@ -8,7 +9,10 @@
 #include <fastdds/dds/topic/Topic.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
 
+#include <map>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
@@ -25,11 +29,15 @@ enum class Stream {
 
 class Participant {
  public:
-  Participant(const DdsSettings& settings, const std::string& name, Logger logger);
+  // `identity`: the DDS-Security identity when settings.security.enabled (a robot id, or
+  // kStationIdentity). `listener` (may be null) hears discovery only, never data.
+  Participant(const DdsSettings& settings, const std::string& name, const std::string& identity,
+              Logger logger, fdds::DomainParticipantListener* listener = nullptr);
   ~Participant();
   Participant(const Participant&) = delete;
   Participant& operator=(const Participant&) = delete;
 
+  // The topic of that name, created on first use.
   fdds::Topic* topic(const std::string& name, fdds::TypeSupport type);
   fdds::DataWriter* writer(fdds::Topic* topic, Stream stream);
   fdds::DataReader* reader(fdds::Topic* topic, Stream stream);
@@ -40,6 +48,13 @@ class Participant {
   fdds::DomainParticipant* participant_ = nullptr;
   fdds::Publisher* publisher_ = nullptr;
   fdds::Subscriber* subscriber_ = nullptr;
+  std::map<std::string, fdds::Topic*> topics_;
 };
+
+// The Fast DDS properties that turn DDS-Security on for `identity`, from the files of
+// `keyfleet security init` in settings.security.directory; throws StartupError naming a
+// missing file.
+std::vector<std::pair<std::string, std::string>> security_properties(const DdsSettings& settings,
+                                                                     const std::string& identity);
 
 }  // namespace keyfleet::dds

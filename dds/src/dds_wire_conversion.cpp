@@ -111,6 +111,7 @@ void to_wire(const KeyframeAck& in, wire::KeyframeAck& out) {
     case AckStatus::kStored: out.status(wire::ACK_STORED); break;
     case AckStatus::kDuplicate: out.status(wire::ACK_DUPLICATE); break;
     case AckStatus::kRejected: out.status(wire::ACK_REJECTED); break;
+    case AckStatus::kConflict: out.status(wire::ACK_CONFLICT); break;
   }
   out.reason(in.reason);
 }
@@ -122,6 +123,7 @@ KeyframeAck from_wire(const wire::KeyframeAck& in) {
   switch (in.status()) {
     case wire::ACK_STORED: out.status = AckStatus::kStored; break;
     case wire::ACK_DUPLICATE: out.status = AckStatus::kDuplicate; break;
+    case wire::ACK_CONFLICT: out.status = AckStatus::kConflict; break;
     default: out.status = AckStatus::kRejected; break;
   }
   out.reason = in.reason();

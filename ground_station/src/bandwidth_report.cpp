@@ -38,6 +38,7 @@ std::string with_label(std::uint64_t bytes, bool estimated, bool known) {
 void accumulate(BandwidthRow& sum, const BandwidthRow& r) {
   sum.keyframes_stored += r.keyframes_stored;
   sum.rejected += r.rejected;
+  sum.conflicts += r.conflicts;
   sum.bytes_received += r.bytes_received;
   sum.bytes_received_with_baseline += r.bytes_received_with_baseline;
   sum.frames_seen += r.frames_seen;
@@ -73,6 +74,7 @@ BandwidthReport build_bandwidth_report(const std::vector<RobotTotals>& totals) {
     row.robot_id = t.robot_id;
     row.keyframes_stored = t.keyframes;
     row.rejected = t.rejected;
+    row.conflicts = t.conflicts;
     row.bytes_received = t.serialized_bytes;
     const double span_min = static_cast<double>(t.last_received_ns - t.first_received_ns) / 60e9;
     row.keyframes_per_minute = span_min > 0 ? static_cast<double>(t.keyframes) / span_min : 0;
@@ -139,6 +141,7 @@ std::string to_json(const BandwidthReport& report) {
     return nlohmann::json{{"robot_id", r.robot_id},
                           {"keyframes_stored", r.keyframes_stored},
                           {"rejected", r.rejected},
+                          {"conflicts", r.conflicts},
                           {"bytes_received", r.bytes_received},
                           {"bytes_received_with_baseline", r.bytes_received_with_baseline},
                           {"has_agent_stats", r.has_agent_stats},

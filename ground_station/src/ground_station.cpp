@@ -19,7 +19,11 @@ void GroundStation::note_robot(const std::string& robot_id) {
 KeyframeAck GroundStation::handle(const ReceivedKeyframe& received, std::int64_t now_ns) {
   const Keyframe& k = received.keyframe;
   KeyframeAck ack{k.robot_id, k.sequence_number, AckStatus::kStored, {}};
-  if (auto problem = find_keyframe_problem(k, limits_, codec_)) {
+  auto problem = find_keyframe_problem(k, limits_, codec_);
+  if (!problem && !received.sender.empty() && received.sender != k.robot_id)
+    problem = "robot id '" + k.robot_id + "' is not its writer's, '" +
+              printable_text(received.sender) + "'";
+  if (problem) {
     ack.status = AckStatus::kRejected;
     ack.reason = *problem;
     // The id is recorded as printable text: raw bytes that are not UTF-8 would stop the JSON
@@ -51,7 +55,18 @@ KeyframeAck GroundStation::handle(const ReceivedKeyframe& received, std::int64_t
 KeyframeAck GroundStation::store_checked(const Keyframe& k, std::uint64_t serialized_bytes,
                                          std::int64_t now_ns) {
   KeyframeAck ack{k.robot_id, k.sequence_number, AckStatus::kStored, {}};
-  if (store_.store(k, serialized_bytes, now_ns) == StoreOutcome::kDuplicate) {
+  const StoreOutcome outcome = store_.store(k, serialized_bytes, now_ns);
+  if (outcome == StoreOutcome::kConflict) {
+    ack.status = AckStatus::kConflict;
+    ack.reason = "sequence " + std::to_string(k.sequence_number) +
+                 " is already stored with another image; this one is kept apart";
+    logger_->error("keyframe {} from {}: {} (the robot lost its sequence numbers?)",
+                   k.sequence_number, k.robot_id, ack.reason);
+    log_.event("sequence conflict: " + k.robot_id + " " + std::to_string(k.sequence_number),
+               now_ns);
+    return ack;
+  }
+  if (outcome == StoreOutcome::kDuplicate) {
     ack.status = AckStatus::kDuplicate;
     logger_->debug("duplicate keyframe {} from {} acknowledged again", k.sequence_number,
                    k.robot_id);

@@ -39,6 +39,18 @@ CREATE TABLE IF NOT EXISTS rejected (
   reason TEXT NOT NULL,
   PRIMARY KEY (robot_id, sequence_number)
 );
+CREATE TABLE IF NOT EXISTS conflicts (
+  robot_id TEXT NOT NULL,
+  sequence_number INTEGER NOT NULL,
+  image_fnv1a64 INTEGER NOT NULL,
+  received_ns INTEGER NOT NULL,
+  frame_index INTEGER NOT NULL,
+  capture_time_ns INTEGER NOT NULL,
+  width INTEGER NOT NULL,
+  height INTEGER NOT NULL,
+  image BLOB NOT NULL,
+  PRIMARY KEY (robot_id, sequence_number, image_fnv1a64)
+);
 CREATE TABLE IF NOT EXISTS agent_stats (
   robot_id TEXT PRIMARY KEY,
   report_time_ns INTEGER NOT NULL,
@@ -90,6 +102,9 @@ KeyframeStore::KeyframeStore(const std::string& path, SqliteDb::Mode mode) : db_
     has_text_regions_ = columns.bind(1, std::string("text_regions")).step();
     auto tables = db_.prepare("SELECT 1 FROM sqlite_master WHERE name = 'agent_stats_history'");
     has_stats_history_ = tables.step();
+    has_conflicts_ = db_.prepare("SELECT 1 FROM sqlite_master WHERE type='table' AND name=?")
+                         .bind(1, std::string("conflicts"))
+                         .step();
     return;
   }
   db_.exec(kSchema);
@@ -135,7 +150,26 @@ StoreOutcome KeyframeStore::store(const Keyframe& k, std::uint64_t serialized_by
   else
     insert.bind(25, text_regions_blob(k.text_regions));
   insert.step();
-  return db_.changes() > 0 ? StoreOutcome::kStored : StoreOutcome::kDuplicate;
+  if (db_.changes() > 0) return StoreOutcome::kStored;
+  auto stored =
+      db_.prepare("SELECT image_fnv1a64 FROM keyframes WHERE robot_id=? AND sequence_number=?");
+  stored.bind(1, k.robot_id).bind(2, as_int(k.sequence_number));
+  const std::int64_t hash = as_int(fnv1a64(k.image));
+  if (stored.step() && stored.int64(0) == hash) return StoreOutcome::kDuplicate;
+  db_.prepare(
+         "INSERT OR IGNORE INTO conflicts(robot_id, sequence_number, image_fnv1a64, received_ns, "
+         "frame_index, capture_time_ns, width, height, image) VALUES(?,?,?,?,?,?,?,?,?)")
+      .bind(1, k.robot_id)
+      .bind(2, as_int(k.sequence_number))
+      .bind(3, hash)
+      .bind(4, received_ns)
+      .bind(5, as_int(k.frame_index))
+      .bind(6, k.capture_time_ns)
+      .bind(7, std::int64_t{k.width})
+      .bind(8, std::int64_t{k.height})
+      .bind(9, k.image)
+      .step();
+  return StoreOutcome::kConflict;
 }
 
 bool KeyframeStore::record_rejection(const std::string& robot_id, std::uint64_t sequence,
@@ -228,6 +262,14 @@ std::vector<RobotTotals> KeyframeStore::totals() const {
     RobotTotals& t = by_robot[rejected.text(0)];
     t.robot_id = rejected.text(0);
     t.rejected = as_uint(rejected.int64(1));
+  }
+  if (has_conflicts_) {
+    auto conflicts = db_.prepare("SELECT robot_id, COUNT(*) FROM conflicts GROUP BY robot_id");
+    while (conflicts.step()) {
+      RobotTotals& t = by_robot[conflicts.text(0)];
+      t.robot_id = conflicts.text(0);
+      t.conflicts = as_uint(conflicts.int64(1));
+    }
   }
   auto stats = db_.prepare("SELECT * FROM agent_stats");
   while (stats.step()) {

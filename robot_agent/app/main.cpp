@@ -40,7 +40,7 @@ int run(const ProcessOptions& options, const std::string& robot_id) {
                  outbox.pending());
   agent::StageClock clock;
   auto selector = agent::make_selector(config.selector, source->fps(), &clock);
-  auto link = make_dds_agent_link(config.dds, logger);
+  auto link = make_dds_agent_link(config.dds, config.robot_id, logger);
   agent::KeyframeAgent pipeline(config, std::move(selector),
                                 std::make_unique<JpegCodec>(config.codec.jpeg_quality), outbox,
                                 *link, clock, logger);

@@ -87,6 +87,15 @@ void KeyframeAgent::publish_selection(const Selection& selection, std::int64_t n
 void KeyframeAgent::service(std::int64_t now_ns, std::chrono::milliseconds ack_wait) {
   auto scope = clock_.measure("service");
   for (const auto& ack : link_.take_acks(config_.robot_id, ack_wait)) {
+    if (ack.status == AckStatus::kConflict) {
+      // The station holds this number with another image: ours goes again under a new one.
+      if (const auto renumbered = outbox_.renumber(ack.sequence_number)) {
+        never_sent_.erase(ack.sequence_number);
+        logger_->error("station holds sequence {} with another image: sending ours as {}",
+                       ack.sequence_number, *renumbered);
+      }
+      continue;
+    }
     const bool was_pending = outbox_.acknowledge(ack.sequence_number);
     if (ack.status == AckStatus::kRejected && was_pending) {
       ++rejected_;

@@ -126,6 +126,32 @@ bool Outbox::acknowledge(std::uint64_t sequence) {
   return db_.changes() > 0;
 }
 
+std::optional<std::uint64_t> Outbox::renumber(std::uint64_t sequence) {
+  const std::uint64_t renumbered = next_sequence_;
+  db_.exec("BEGIN");
+  try {
+    db_.prepare(
+           "UPDATE pending SET sequence_number=?, last_sent_ns=NULL, sends=0 "
+           "WHERE sequence_number=?")
+        .bind(1, as_int(renumbered))
+        .bind(2, as_int(sequence))
+        .step();
+    if (db_.changes() == 0) {
+      db_.exec("ROLLBACK");
+      return std::nullopt;
+    }
+    db_.prepare("INSERT OR REPLACE INTO meta(key, value) VALUES('next_sequence', ?)")
+        .bind(1, std::to_string(renumbered + 1))
+        .step();
+    db_.exec("COMMIT");
+  } catch (...) {
+    db_.exec("ROLLBACK");
+    throw;
+  }
+  next_sequence_ = renumbered + 1;
+  return renumbered;
+}
+
 std::vector<Keyframe> Outbox::due_for_resend(std::int64_t now_ns, std::size_t max) {
   const auto threshold = now_ns - static_cast<std::int64_t>(bounds_.resend_after_s * 1e9);
   auto query = db_.prepare(

@@ -81,8 +81,8 @@ TEST_F(BadInput, StationRejectsHostileSamplesAndKeepsServingOthers) {
   auto station = start_station(station_config());
   auto good_agent = start_agent(agent_config("good_drone"));
 
-  auto link = make_dds_agent_link(dds(), null_logger());
-  auto bad_id_link = make_dds_agent_link(dds(), null_logger());  // acks are taken per robot
+  auto link = make_dds_agent_link(dds(), "intruder", null_logger());
+  auto bad_id_link = make_dds_agent_link(dds(), "bad_id", null_logger());  // acks: per robot
   ASSERT_TRUE(wait_until(
       [&] { return link->matched_stations() > 0 && bad_id_link->matched_stations() > 0; },
       seconds(20)));
@@ -177,7 +177,7 @@ TEST_F(BadInput, StationRejectsHostileSamplesAndKeepsServingOthers) {
 // regions fixed (cut at the image's edge, outside or empty ones dropped, capped in number).
 TEST_F(BadInput, KeyframeWithLyingTextRegionsIsStoredWithThemFixed) {
   auto station = start_station(station_config());
-  auto link = make_dds_agent_link(dds(), null_logger());
+  auto link = make_dds_agent_link(dds(), "hinter", null_logger());
   ASSERT_TRUE(wait_until([&] { return link->matched_stations() > 0; }, seconds(20)));
 
   JpegCodec codec(80);

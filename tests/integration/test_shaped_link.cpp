@@ -97,6 +97,10 @@ TEST_F(ShapedLink, NetnsMissionMeasuresBytesOnTheWireAndCleansUp) {
   config.mission.agent = shaped_agent("drone_0", 0);
   config.mission.agent.source.max_frames = 60;  // 12 keyframes
   config.mission.agent_timeout_s = 120;
+  // The bound is the keyframe protocol's own: with DDS-Security the same 12 keyframes took 10.9 s
+  // instead of 3.8 s here and 1.05 MB on the wire instead of 0.34 MB (handshakes, then a
+  // heavier steady chatter), measured in one run; that cost is reported, not bounded, here.
+  config.mission.security = false;
   config.mission.station = delivery_station(station_config());
   mission::MissionBinaries binaries{KEYFLEET_AGENT_BIN, KEYFLEET_STATION_BIN};
   std::ostringstream progress;

@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "keyfleet/common/sqlite.hpp"
 #include "support/expected_keyframes.hpp"
 #include "support/fleet_fixture.hpp"
 
@@ -105,6 +106,46 @@ TEST_F(StationOutage, KeyframesPublishedWhileStationIsDownArriveOnceAfterRestart
             << " ms after restart, " << report["fleet"]["keyframes_resent"].get<int>()
             << " retransmissions, " << report["fleet"]["keyframes_stored"].get<int>()
             << " stored in all\n";
+}
+
+// A robot loses its outbox (its disk was replaced) and numbers its keyframes from 0 again:
+// the station already holds those numbers with other images. Nothing is overwritten or thrown
+// away: the station keeps the newcomers apart as conflicts and the robot sends them again under
+// new numbers, so every image of both flights is stored.
+TEST_F(StationOutage, ARobotThatLostItsNumberingLosesNoKeyframe) {
+  AgentConfig first = agent_config("drone_0");
+  first.source.max_frames = 60;
+  first.selector.trigger.stride = 6;
+  first.source.seed = 31;
+  AgentConfig second = first;
+  second.source.seed = 32;  // other frames, the same numbers
+  auto station = start_station(station_config());
+
+  auto agent = start_agent(first);
+  auto status = agent->wait_for(seconds(60));
+  ASSERT_TRUE(status && status->ok()) << mission::tail_of_file(agent->log_path(), 20);
+  const std::int64_t first_flight = stored_counts()["drone_0"];
+  ASSERT_GT(first_flight, 3);
+  std::filesystem::remove_all(agent_dir("drone_0"));
+
+  agent = start_agent(second);
+  status = agent->wait_for(seconds(60));
+  ASSERT_TRUE(status && status->ok()) << mission::tail_of_file(agent->log_path(), 20);
+  EXPECT_EQ(outbox_pending("drone_0"), 0);
+  SqliteDb db((station_dir() / "station.sqlite").string(), SqliteDb::Mode::kReadOnly);
+  auto sent = db.prepare("SELECT keyframes_sent, finished FROM agent_stats WHERE robot_id=?");
+  ASSERT_TRUE(sent.bind(1, std::string("drone_0")).step());
+  ASSERT_EQ(sent.int64(1), 1) << "the second flight's final stats did not arrive";
+  const std::int64_t second_flight = sent.int64(0);  // renumbered copies count as resends
+  ASSERT_GT(second_flight, 0);
+  EXPECT_EQ(stored_counts()["drone_0"], first_flight + second_flight);
+  auto conflicts = db.prepare("SELECT COUNT(*) FROM conflicts WHERE robot_id='drone_0'");
+  ASSERT_TRUE(conflicts.step());
+  EXPECT_GE(conflicts.int64(0), std::min(first_flight, second_flight));
+
+  station->signal(SIGTERM);
+  const auto station_status = station->wait_for(seconds(30));
+  ASSERT_TRUE(station_status && station_status->ok());
 }
 
 }  // namespace

@@ -65,6 +65,22 @@ TEST_F(GroundStationTest, StepWithNothingArrivedDoesNothing) {
   EXPECT_GT(link_.last_max_keyframes, 0u);
 }
 
+// Over DDS the sender is the robot of the topic the keyframe came on, which DDS-Security ties
+// to the writer's certificate: a keyframe claiming another robot is refused, not stored.
+TEST_F(GroundStationTest, KeyframeClaimingAnotherRobotThanItsWriterIsRejected) {
+  ReceivedKeyframe forged = received(keyfleet::test::make_valid_keyframe("drone_0", 3));
+  forged.sender = "drone_1";
+  ReceivedKeyframe honest = received(keyfleet::test::make_valid_keyframe("drone_1", 3));
+  honest.sender = "drone_1";
+  EXPECT_EQ(step_with({forged, honest}), 2u);
+  ASSERT_EQ(link_.acks.size(), 2u);
+  EXPECT_EQ(link_.acks[0].status, AckStatus::kRejected);
+  EXPECT_EQ(link_.acks[0].reason, "robot id 'drone_0' is not its writer's, 'drone_1'");
+  EXPECT_EQ(link_.acks[1].status, AckStatus::kStored);
+  EXPECT_FALSE(store_.load("drone_0", 3).has_value());
+  EXPECT_TRUE(store_.load("drone_1", 3).has_value());
+}
+
 TEST_F(GroundStationTest, GoodDuplicateAndCorruptKeyframesGetMatchingAcks) {
   const Keyframe good = keyfleet::test::make_valid_keyframe("drone_0", 0);
   const std::size_t handled =

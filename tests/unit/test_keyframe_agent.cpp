@@ -484,6 +484,22 @@ TEST_F(KeyframeAgentTest, DuplicateAckAlsoRemovesTheKeyframe) {
   EXPECT_EQ(agent_->rejected(), 0u);
 }
 
+// The station holds sequence 0 with another image (this robot lost its numbering): the
+// keyframe is not deleted but sent again at once under the next number.
+TEST_F(KeyframeAgentTest, ConflictAckSendsTheKeyframeAgainUnderANewNumber) {
+  start({{0, 1}, {}, {}});
+  process_frames(2, kStart);
+  link_.queue_ack("drone_0", 0, AckStatus::kConflict, "already stored with another image");
+  service(kStart);
+  EXPECT_EQ(agent_->pending(), 2u);
+  EXPECT_EQ(in_outbox(), (std::vector<std::uint64_t>{1, 2}));
+  ASSERT_EQ(link_.keyframes.size(), 3u);
+  EXPECT_EQ(link_.keyframes[2].sequence_number, 2u);
+  EXPECT_EQ(link_.keyframes[2].image, link_.keyframes[0].image);
+  EXPECT_EQ(agent_->rejected(), 0u);
+  EXPECT_EQ(outbox_->next_sequence(), 3u);  // new keyframes number after it
+}
+
 TEST_F(KeyframeAgentTest, RejectedAckCountsOnlyWhenTheKeyframeWasPending) {
   start({{0, 1}, {}, {}});
   process_frames(2, kStart);

@@ -108,14 +108,29 @@ TEST_F(KeyframeStoreTest, StoredImageIsByteIdentical) {
   EXPECT_EQ(stored_image("drone_0", 1), k.image);
 }
 
-TEST_F(KeyframeStoreTest, DuplicateWithDifferentBytesKeepsTheFirstCopy) {
+// The same sequence number with another image is a robot that lost its numbering, not a
+// resend: the first copy stays where it is, the second is kept apart and counted.
+TEST_F(KeyframeStoreTest, SameSequenceWithAnotherImageIsAConflictAndBothAreKept) {
   KeyframeStore store(path_);
   Keyframe first = keyfleet::test::make_valid_keyframe("drone_0", 1);
   ASSERT_EQ(store.store(first, 100, kT0), StoreOutcome::kStored);
+  EXPECT_EQ(store.store(first, 100, kT0 + 1), StoreOutcome::kDuplicate);
   Keyframe second = first;
   second.image = keyfleet::test::random_bytes(300, 4);
-  EXPECT_EQ(store.store(second, 300, kT0 + 5), StoreOutcome::kDuplicate);
+  EXPECT_EQ(store.store(second, 300, kT0 + 5), StoreOutcome::kConflict);
+  EXPECT_EQ(store.store(second, 300, kT0 + 6), StoreOutcome::kConflict);  // kept once
   EXPECT_EQ(stored_image("drone_0", 1), first.image);
+  SqliteDb db(path_, SqliteDb::Mode::kReadOnly);
+  auto kept = db.prepare(
+      "SELECT image FROM conflicts WHERE robot_id='drone_0' AND "
+      "sequence_number=1");
+  ASSERT_TRUE(kept.step());
+  EXPECT_EQ(kept.blob(0), second.image);
+  EXPECT_FALSE(kept.step());
+  const RobotTotals* totals = find_robot(store.totals(), "drone_0");
+  ASSERT_NE(totals, nullptr);
+  EXPECT_EQ(totals->keyframes, 1u);
+  EXPECT_EQ(totals->conflicts, 1u);
 }
 
 TEST_F(KeyframeStoreTest, StoresMetadataAndPoseColumns) {

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -87,6 +88,23 @@ TEST_F(OutboxTest, AcknowledgeRemovesOnceAndThenReturnsFalse) {
   EXPECT_FALSE(outbox.acknowledge(1));
   EXPECT_EQ(outbox.pending(), 2u);
   EXPECT_EQ(sequences(outbox.due_for_resend(kStart, 10)), (std::vector<std::uint64_t>{0, 2}));
+}
+
+// After a conflict the keyframe takes the next number, durably, and is due at once.
+TEST_F(OutboxTest, RenumberGivesThePendingKeyframeTheNextSequence) {
+  {
+    Outbox outbox(path_, "drone_0", bounds());
+    for (std::uint64_t s = 0; s < 3; ++s) add_sent(outbox, "drone_0", kStart);
+    EXPECT_EQ(outbox.renumber(1), std::optional<std::uint64_t>(3));
+    EXPECT_FALSE(outbox.renumber(1).has_value());  // no longer pending under 1
+    EXPECT_EQ(outbox.next_sequence(), 4u);
+    const auto due = outbox.due_for_resend(kStart, 10);  // the others were just sent
+    ASSERT_EQ(sequences(due), (std::vector<std::uint64_t>{3}));
+    EXPECT_EQ(due[0].image, distinctive_keyframe("drone_0", 1).image);
+  }
+  const Outbox reopened(path_, "drone_0", bounds());
+  EXPECT_EQ(reopened.next_sequence(), 4u);
+  EXPECT_EQ(reopened.pending(), 3u);
 }
 
 TEST_F(OutboxTest, AcknowledgeOfUnknownSequenceReturnsFalse) {

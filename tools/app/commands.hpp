@@ -28,6 +28,7 @@ void add_experiment_commands(CLI::App& app);
 void add_eval_commands(CLI::App& app);
 void add_ocr_commands(CLI::App& app);
 void add_segmenter_commands(CLI::App& app);
+void add_security_commands(CLI::App& app);
 
 // Scores what a run's station read against the scenario it replayed (`keyfleet ocr score`, and
 // the end of `keyfleet mission`): prints it and writes station/text_score.txt. Never throws: a

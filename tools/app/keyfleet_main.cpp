@@ -185,6 +185,7 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
 
   keyfleet::commands::add_segmenter_commands(app);
+  keyfleet::commands::add_security_commands(app);
   keyfleet::commands::add_station_commands(app);
   keyfleet::commands::add_ocr_commands(app);
   keyfleet::commands::add_vocabulary_commands(app);

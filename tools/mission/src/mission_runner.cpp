@@ -16,6 +16,7 @@
 #include "keyfleet/common/scenario_truth.hpp"
 #include "keyfleet/common/sqlite.hpp"
 #include "keyfleet/mission/child_process.hpp"
+#include "keyfleet/mission/fleet_credentials.hpp"
 #include "keyfleet/scenario/scenario_config.hpp"
 #include "keyfleet/scenario/scenario_generator.hpp"
 #include "keyfleet/station/web/html_report.hpp"
@@ -128,8 +129,6 @@ MissionResult MissionRunner::run(const StopToken& stop) {
                                 "-" + std::to_string(entropy() % 1000000);
   config_.station.dds.domain_id = domain;
   config_.station.dds.partition = partition;
-  write_text(run_dir / "config" / "station.yaml", to_yaml(config_.station));
-  write_text(run_dir / "config" / "mission.yaml", to_yaml(config_));
   progress_ << "mission '" << config_.name << "': DDS domain " << domain << ", partition "
             << partition << "\nrun folder: " << run_dir.string() << "\n"
             << std::flush;
@@ -154,6 +153,16 @@ MissionResult MissionRunner::run(const StopToken& stop) {
     for (int i = 0; i < config_.drones; ++i)
       robot_ids.push_back(config_.robot_id_prefix + std::to_string(i));
   }
+
+  if (config_.security) {
+    const fs::path credentials = run_dir / "security";
+    write_fleet_credentials({credentials.string(), robot_ids}, logger_);
+    config_.station.dds.security = {true, credentials.string()};
+    config_.agent.dds.security = {true, credentials.string()};
+    progress_ << "DDS-Security on: credentials in " << credentials.string() << "\n";
+  }
+  write_text(run_dir / "config" / "station.yaml", to_yaml(config_.station));
+  write_text(run_dir / "config" / "mission.yaml", to_yaml(config_));
 
   progress_ << robot_ids.size() << " drone(s) + station\n" << std::flush;
   const fs::path station_dir = run_dir / "station";

@@ -11,6 +11,15 @@ namespace keyfleet {
 // How a process joins the DDS network. Fast DDS's own defaults announce on every interface by
 // multicast; these keep a one-machine mission on SHM and 127.0.0.1, and the discovery timings
 // avoid the multi-second stalls and the 20-s memory of a killed reader that the defaults give.
+// DDS-Security with Fast DDS's builtin plugins: PKI-DH authentication, permissions access
+// control, AES-GCM-GMAC encryption. The files are those of `keyfleet security init`
+// (security_files.hpp); a mission makes them for its run. The participant's identity is the
+// robot id (agents) or "station".
+struct DdsSecurity {
+  bool enabled = false;
+  std::string directory;  // the credentials folder; relative paths from the config file's folder
+};
+
 struct DdsSettings {
   enum class Transport {
     kLocalhost,  // SHM + UDPv4 on 127.0.0.1 only, no multicast: one-machine missions and tests
@@ -32,6 +41,7 @@ struct DdsSettings {
   // 10 ms periods); 0 = unlimited. When capped, a full writer refuses a keyframe at once
   // and the outbox sends it again later.
   std::uint64_t max_bytes_per_s = 0;
+  DdsSecurity security;
 };
 
 struct SourceConfig {

@@ -35,6 +35,10 @@ class AgentLink {
 struct ReceivedKeyframe {
   Keyframe keyframe;
   std::uint64_t serialized_bytes = 0;
+  // The robot the transport knows the writer as (over DDS: the robot of the keyframe topic it
+  // wrote on, which DDS-Security permissions bind to the robot's certificate); empty when the
+  // transport cannot tell. A keyframe claiming another robot id is refused.
+  std::string sender;
 };
 
 struct StationInbox {

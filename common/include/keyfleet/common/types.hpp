@@ -66,7 +66,10 @@ struct AgentStats {
   std::vector<StageTime> stages;
 };
 
-enum class AckStatus { kStored, kDuplicate, kRejected };
+// kConflict: the station already holds this (robot, sequence) with another image (the robot lost
+// its sequence numbers); the station keeps both, and the robot sends its copy again under a new
+// number.
+enum class AckStatus { kStored, kDuplicate, kRejected, kConflict };
 
 struct KeyframeAck {
   std::string robot_id;

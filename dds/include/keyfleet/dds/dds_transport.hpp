@@ -4,14 +4,10 @@
 
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
+#include "keyfleet/common/topic_names.hpp"
 #include "keyfleet/common/transport.hpp"
 
 namespace keyfleet {
-
-// Topic names, shared by every process of a mission (partitions separate missions).
-inline constexpr const char* kKeyframeTopic = "keyfleet/keyframes";
-inline constexpr const char* kAgentStatsTopic = "keyfleet/agent_stats";
-inline constexpr const char* kKeyframeAckTopic = "keyfleet/keyframe_acks";
 
 // Sends Fast DDS's own log (errors, warnings) to `logger` instead of stdout.
 // Process-wide by Fast DDS's design: call once from main.
@@ -22,7 +18,8 @@ void route_fastdds_log(Logger logger);
 void apply_dds_environment(DdsSettings& settings);
 
 // Both throw StartupError naming the entity that could not be created.
-std::unique_ptr<AgentLink> make_dds_agent_link(const DdsSettings& settings, Logger logger);
+std::unique_ptr<AgentLink> make_dds_agent_link(const DdsSettings& settings,
+                                               const std::string& robot_id, Logger logger);
 std::unique_ptr<StationLink> make_dds_station_link(const DdsSettings& settings, Logger logger);
 
 }  // namespace keyfleet

@@ -13,6 +13,7 @@ struct BandwidthRow {
   std::string robot_id;  // "FLEET" for the sum
   std::uint64_t keyframes_stored = 0;
   std::uint64_t rejected = 0;
+  std::uint64_t conflicts = 0;       // kept apart: their sequence number held another image
   std::uint64_t bytes_received = 0;  // serialized samples, first copies, measured at the station
   // The part of bytes_received from robots whose stats (and so baselines) are known:
   // savings compare like with like.

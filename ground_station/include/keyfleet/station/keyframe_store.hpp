@@ -9,7 +9,9 @@
 
 namespace keyfleet::station {
 
-enum class StoreOutcome { kStored, kDuplicate };
+// kDuplicate: the same (robot, sequence) with the same image was stored before; kConflict: with
+// another image, which is then kept in the conflicts table.
+enum class StoreOutcome { kStored, kDuplicate, kConflict };
 
 struct RobotTotals {
   std::string robot_id;
@@ -17,6 +19,7 @@ struct RobotTotals {
   std::uint64_t image_bytes = 0;
   std::uint64_t serialized_bytes = 0;  // as received on the wire
   std::uint64_t rejected = 0;
+  std::uint64_t conflicts = 0;  // keyframes whose sequence number was taken by another image
   std::int64_t first_received_ns = 0;
   std::int64_t last_received_ns = 0;
   std::optional<AgentStats> latest_stats;  // the robot's own account, when received
@@ -70,6 +73,7 @@ class KeyframeStore {
   mutable SqliteDb db_;
   bool has_text_regions_ = true;   // false in a read-only database written before them
   bool has_stats_history_ = true;  // likewise
+  bool has_conflicts_ = true;      // likewise
 };
 
 }  // namespace keyfleet::station

@@ -5,6 +5,7 @@
 
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/image_codec.hpp"
+#include "keyfleet/common/printable_text.hpp"
 #include "keyfleet/common/types.hpp"
 
 namespace keyfleet::station {
@@ -31,10 +32,6 @@ struct TextRegionReview {
 TextRegionReview review_text_regions(const std::vector<TextRegion>& regions, std::uint32_t width,
                                      std::uint32_t height, std::size_t max_regions);
 
-// A string from a sample the station does not trust (a rejected keyframe's robot id or
-// encoding) as it may go into logs, the database, the mission log and the JSON reports: its
-// first `max_bytes` bytes, printable ASCII kept and every other byte (control characters,
-// invalid UTF-8) and the backslash written as \xNN.
-std::string printable_text(const std::string& raw, std::size_t max_bytes = 64);
+using ::keyfleet::printable_text;
 
 }  // namespace keyfleet::station

@@ -1,5 +1,6 @@
 #pragma once
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,9 @@ class Outbox {
   void mark_sent(std::uint64_t sequence, std::int64_t now_ns);
   // Removes the keyframe; false when it was not pending (a repeated acknowledgement).
   bool acknowledge(std::uint64_t sequence);
+  // Gives a pending keyframe the next sequence number (due for sending at once); returns it, or
+  // nothing when `sequence` is not pending.
+  std::optional<std::uint64_t> renumber(std::uint64_t sequence);
   // Oldest first: keyframes last sent at least resend_after_s ago, at most `max`.
   std::vector<Keyframe> due_for_resend(std::int64_t now_ns, std::size_t max);
   // Applies the bounds (the age one only with `by_age`); returns the sequence numbers given up

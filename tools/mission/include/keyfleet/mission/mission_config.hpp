@@ -20,6 +20,9 @@ struct MissionConfig {
   // sets the drones (one agent per scenario drone, source kind scenario).
   std::string scenario;
   std::string scenario_dir;
+  // DDS-Security for every participant: throwaway credentials (fleet_credentials.hpp) made into
+  // <run folder>/security at start. false: plain DDS, anyone on the domain can read and write.
+  bool security = true;
   AgentConfig agent;  // template for every drone; seed += drone index
   StationConfig station;
 };

@@ -1,0 +1,126 @@
+// DDS-Security over real participants in several processes: a secured station serves a
+// secured robot; a participant without credentials neither delivers nor reads; a robot cannot
+// write on another robot's topic, nor pass its keyframes off as another robot's.
+#include <csignal>
+#include <map>
+
+#include "keyfleet/common/error.hpp"
+#include "keyfleet/common/image_codec.hpp"
+#include "keyfleet/dds/dds_transport.hpp"
+#include "keyfleet/mission/fleet_credentials.hpp"
+#include "support/fleet_fixture.hpp"
+
+namespace keyfleet::testing {
+namespace {
+
+using std::chrono::milliseconds;
+using std::chrono::seconds;
+
+class DdsSecurity : public FleetFixture {
+ protected:
+  void SetUp() override {
+    FleetFixture::SetUp();
+    credentials_ = (run_dir_ / "security").string();
+    mission::write_fleet_credentials({credentials_, {"drone_0", "drone_1"}}, null_logger());
+  }
+  DdsSettings secured() const {
+    DdsSettings settings = dds();
+    settings.security = {true, credentials_};
+    return settings;
+  }
+  Keyframe keyframe(const std::string& robot_id, std::uint64_t sequence) const {
+    Keyframe k;
+    k.robot_id = robot_id;
+    k.sequence_number = sequence;
+    k.width = 64;
+    k.height = 48;
+    k.image = JpegCodec(80).encode(cv::Mat(48, 64, CV_8UC3, cv::Scalar(40, 120, 200)));
+    return k;
+  }
+  // Publishes until the station answers (a sample written while matching may be missed).
+  std::optional<KeyframeAck> deliver(AgentLink& link, const Keyframe& k, seconds timeout) {
+    std::optional<KeyframeAck> ack;
+    wait_until(
+        [&] {
+          link.publish(k);
+          for (auto& a : link.take_acks(k.robot_id, milliseconds(300)))
+            if (a.sequence_number == k.sequence_number) ack = a;
+          return ack.has_value();
+        },
+        timeout);
+    return ack;
+  }
+  std::string credentials_;
+};
+
+TEST_F(DdsSecurity, SecuredRobotIsServedAndStrangersGetNothing) {
+  StationConfig config = station_config();
+  config.dds.security = {true, credentials_};
+  auto station = start_station(config);
+
+  auto robot = make_dds_agent_link(secured(), "drone_0", null_logger());
+  auto stranger = make_dds_agent_link(dds(), "drone_1", null_logger());  // no credentials
+  auto eavesdropper = make_dds_station_link(dds(), null_logger());       // no credentials
+  ASSERT_TRUE(wait_until([&] { return robot->matched_stations() > 0; }, seconds(30)));
+
+  const auto ack = deliver(*robot, keyframe("drone_0", 0), seconds(20));
+  ASSERT_TRUE(ack.has_value());
+  EXPECT_EQ(ack->status, AckStatus::kStored);
+  // By now the stranger has been announced to the station for as long as the robot took to be
+  // authenticated and served: it was never matched, and its keyframe was never stored.
+  stranger->publish(keyframe("drone_1", 0));
+  EXPECT_EQ(stranger->matched_stations(), 0u);
+  const auto again = deliver(*robot, keyframe("drone_0", 1), seconds(20));
+  ASSERT_TRUE(again.has_value());
+  EXPECT_EQ(stored_counts()["drone_0"], 2);
+  EXPECT_EQ(stored_counts().count("drone_1"), 0u);
+  EXPECT_EQ(eavesdropper->matched_agents(), 0u);
+  EXPECT_TRUE(eavesdropper->take(milliseconds(0), 64).keyframes.empty());
+
+  station->signal(SIGTERM);
+  const auto status = station->wait_for(seconds(30));
+  ASSERT_TRUE(status && status->ok());
+}
+
+TEST_F(DdsSecurity, RobotCannotWriteOnAnotherRobotsTopic) {
+  // drone_1's credentials presented as drone_0: its permissions allow drone_1's topics only,
+  // and the subject of drone_0's permissions is not its certificate's.
+  const auto forged = run_dir_ / "forged";
+  std::filesystem::create_directories(forged / "identities");
+  for (const char* file : {"ca.cert.pem", "governance.p7s"})
+    std::filesystem::copy_file(std::filesystem::path(credentials_) / file, forged / file);
+  for (const char* suffix : {".cert.pem", ".key.pem", ".permissions.p7s"})
+    std::filesystem::copy_file(
+        std::filesystem::path(credentials_) / "identities" / (std::string("drone_1") + suffix),
+        forged / "identities" / (std::string("drone_0") + suffix));
+  DdsSettings settings = dds();
+  settings.security = {true, forged.string()};
+  try {
+    auto link = make_dds_agent_link(settings, "drone_0", null_logger());
+    FAIL() << "a writer on drone_0's topic was created with drone_1's credentials";
+  } catch (const StartupError& e) {
+    EXPECT_NE(std::string(e.what()).find("keyfleet/keyframes/drone_0"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST_F(DdsSecurity, KeyframeClaimingAnotherRobotIsRefused) {
+  StationConfig config = station_config();
+  config.dds.security = {true, credentials_};
+  auto station = start_station(config);
+  auto robot = make_dds_agent_link(secured(), "drone_1", null_logger());
+  ASSERT_TRUE(wait_until([&] { return robot->matched_stations() > 0; }, seconds(30)));
+
+  const auto ack = deliver(*robot, keyframe("drone_0", 7), seconds(20));
+  ASSERT_TRUE(ack.has_value());
+  EXPECT_EQ(ack->status, AckStatus::kRejected);
+  EXPECT_NE(ack->reason.find("is not its writer's, 'drone_1'"), std::string::npos) << ack->reason;
+  EXPECT_EQ(stored_counts().count("drone_0"), 0u);
+
+  station->signal(SIGTERM);
+  const auto status = station->wait_for(seconds(30));
+  ASSERT_TRUE(status && status->ok());
+}
+
+}  // namespace
+}  // namespace keyfleet::testing

@@ -1,0 +1,186 @@
+#include "keyfleet/mission/fleet_credentials.hpp"
+
+#include <chrono>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+
+#include "keyfleet/common/config.hpp"
+#include "keyfleet/common/error.hpp"
+#include "keyfleet/common/security_files.hpp"
+#include "keyfleet/common/topic_names.hpp"
+#include "keyfleet/mission/child_process.hpp"
+
+namespace keyfleet::mission {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kMaxDomain = 232;
+
+std::string utc_text(std::chrono::system_clock::time_point t) {
+  const std::time_t seconds = std::chrono::system_clock::to_time_t(t);
+  std::tm tm{};
+  gmtime_r(&seconds, &tm);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%S", &tm);
+  return text;
+}
+
+void write_file(const fs::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::trunc);
+  out << text;
+  if (!out.flush()) throw StartupError("security init: cannot write " + path.string());
+}
+
+class OpenSsl {
+ public:
+  OpenSsl(std::string program, fs::path log) : program_(std::move(program)), log_(std::move(log)) {}
+
+  void run(const std::string& step, std::vector<std::string> args) {
+    args.insert(args.begin(), program_);
+    ChildProcess child("openssl", args, log_.string());
+    const auto status = child.wait_for(std::chrono::seconds(60));
+    if (!status || !status->ok())
+      throw StartupError("security init: openssl failed to " + step + " (" +
+                         (status ? status->describe() : std::string("no answer in 60 s")) + "):\n" +
+                         tail_of_file(log_.string(), 8));
+  }
+
+ private:
+  std::string program_;
+  fs::path log_;
+};
+
+std::string criteria(const std::vector<std::string>& topics) {
+  std::string xml = "<topics>";
+  for (const auto& t : topics) xml += "<topic>" + t + "</topic>";
+  return xml + "</topics><partitions><partition>*</partition></partitions>";
+}
+
+}  // namespace
+
+std::string governance_xml() {
+  return R"(<?xml version="1.0" encoding="UTF-8"?>
+<dds xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance">
+  <domain_access_rules>
+    <domain_rule>
+      <domains><id_range><min>0</min><max>)" +
+         std::to_string(kMaxDomain) + R"(</max></id_range></domains>
+      <allow_unauthenticated_participants>false</allow_unauthenticated_participants>
+      <enable_join_access_control>true</enable_join_access_control>
+      <discovery_protection_kind>ENCRYPT</discovery_protection_kind>
+      <liveliness_protection_kind>ENCRYPT</liveliness_protection_kind>
+      <rtps_protection_kind>NONE</rtps_protection_kind>
+      <topic_access_rules>
+        <topic_rule>
+          <topic_expression>*</topic_expression>
+          <enable_discovery_protection>true</enable_discovery_protection>
+          <enable_liveliness_protection>true</enable_liveliness_protection>
+          <enable_read_access_control>true</enable_read_access_control>
+          <enable_write_access_control>true</enable_write_access_control>
+          <metadata_protection_kind>SIGN</metadata_protection_kind>
+          <data_protection_kind>ENCRYPT</data_protection_kind>
+        </topic_rule>
+      </topic_access_rules>
+    </domain_rule>
+  </domain_access_rules>
+</dds>
+)";
+}
+
+std::string permissions_xml(const std::string& identity, bool is_station,
+                            const std::string& not_before, const std::string& not_after) {
+  const std::string keyframes = kKeyframeTopicPrefix, stats = kAgentStatsTopicPrefix;
+  const std::string publish = is_station ? criteria({kKeyframeAckTopic})
+                                         : criteria({keyframes + identity, stats + identity});
+  const std::string subscribe =
+      is_station ? criteria({keyframes + "*", stats + "*"}) : criteria({kKeyframeAckTopic});
+  return R"(<?xml version="1.0" encoding="UTF-8"?>
+<dds xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance">
+  <permissions>
+    <grant name=")" +
+         identity + R"(">
+      <subject_name>CN=)" +
+         identity + R"(</subject_name>
+      <validity><not_before>)" +
+         not_before + "</not_before><not_after>" + not_after + R"(</not_after></validity>
+      <allow_rule>
+        <domains><id_range><min>0</min><max>)" +
+         std::to_string(kMaxDomain) + R"(</max></id_range></domains>
+        <publish>)" +
+         publish + R"(</publish>
+        <subscribe>)" +
+         subscribe + R"(</subscribe>
+      </allow_rule>
+      <default>DENY</default>
+    </grant>
+  </permissions>
+</dds>
+)";
+}
+
+void write_fleet_credentials(const FleetCredentialsRequest& request, Logger logger) {
+  if (request.directory.empty()) throw StartupError("security init: no output folder given");
+  if (request.valid_days < 1)
+    throw StartupError("security init: valid_days must be at least 1 (got " +
+                       std::to_string(request.valid_days) + ")");
+  for (const auto& id : request.robot_ids)
+    if (!is_valid_robot_id(id) || id == kStationIdentity)
+      throw StartupError("security init: robot id '" + id +
+                         "' must match [A-Za-z0-9_-]{1,32} and not be '" + kStationIdentity + "'");
+  const fs::path dir = request.directory;
+  std::error_code ec;
+  fs::create_directories(dir / "identities", ec);
+  if (ec) throw StartupError("security init: cannot create " + dir.string() + ": " + ec.message());
+  fs::permissions(dir, fs::perms::owner_all, fs::perm_options::replace, ec);
+
+  OpenSsl openssl(request.openssl, dir / "openssl.log");
+  const std::string days = std::to_string(request.valid_days);
+  const SecurityFiles ca_files = security_files(dir.string(), kStationIdentity);
+  const std::string ca_key = (dir / "ca.key.pem").string();
+  openssl.run("make the CA", {"req",      "-x509",
+                              "-newkey",  "ec",
+                              "-pkeyopt", "ec_paramgen_curve:prime256v1",
+                              "-nodes",   "-sha256",
+                              "-days",    days,
+                              "-subj",    "/CN=keyfleet fleet CA",
+                              "-keyout",  ca_key,
+                              "-out",     ca_files.ca,
+                              "-addext",  "basicConstraints=critical,CA:TRUE",
+                              "-addext",  "keyUsage=critical,keyCertSign,cRLSign,digitalSignature"});
+
+  const auto now = std::chrono::system_clock::now();
+  const std::string not_before = utc_text(now - std::chrono::hours(1));
+  const std::string not_after = utc_text(now + std::chrono::hours(24) * request.valid_days);
+  const fs::path governance_xml_path = dir / "governance.xml";
+  write_file(governance_xml_path, governance_xml());
+  openssl.run("sign the governance",
+              {"smime", "-sign", "-text", "-in", governance_xml_path.string(), "-out",
+               ca_files.governance, "-signer", ca_files.ca, "-inkey", ca_key});
+
+  std::vector<std::string> identities = request.robot_ids;
+  identities.push_back(kStationIdentity);
+  int serial = 1;
+  for (const auto& id : identities) {
+    const SecurityFiles files = security_files(dir.string(), id);
+    const std::string request_path = (dir / "identities" / (id + ".csr.pem")).string();
+    openssl.run(
+        "make the key of " + id,
+        {"req", "-new", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes",
+         "-sha256", "-subj", "/CN=" + id, "-keyout", files.private_key, "-out", request_path});
+    openssl.run("certify " + id, {"x509", "-req", "-sha256", "-days", days, "-in", request_path,
+                                  "-CA", ca_files.ca, "-CAkey", ca_key, "-set_serial",
+                                  std::to_string(++serial), "-out", files.certificate});
+    fs::remove(request_path, ec);
+    const fs::path xml = dir / "identities" / (id + ".permissions.xml");
+    write_file(xml, permissions_xml(id, id == kStationIdentity, not_before, not_after));
+    openssl.run("sign the permissions of " + id,
+                {"smime", "-sign", "-text", "-in", xml.string(), "-out", files.permissions,
+                 "-signer", ca_files.ca, "-inkey", ca_key});
+  }
+  logger->info("DDS-Security credentials for {} robot(s) and the station in {} (valid {} days)",
+               request.robot_ids.size(), dir.string(), request.valid_days);
+}
+
+}  // namespace keyfleet::mission
