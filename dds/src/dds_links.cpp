@@ -230,7 +230,8 @@ class DdsStationLink final : public StationLink {
     bool refused = false;
     for (const auto& robot_id : discovery_.robots(refused)) {
       if (!subscribed_.insert(robot_id).second) continue;
-      RobotReaders readers{robot_id};
+      RobotReaders readers;
+      readers.robot_id = robot_id;
       readers.keyframes = participant_.reader(
           participant_.topic(kKeyframeTopicPrefix + robot_id, keyframe_type_), Stream::kKeyframes);
       readers.stats = participant_.reader(

@@ -50,6 +50,19 @@ class DdsSecurity : public FleetFixture {
         timeout);
     return ack;
   }
+  // A credentials folder where `real`'s certificate, key and permissions lie under the name
+  // `as`: a participant made "as" that identity authenticates as `real`.
+  std::string disguised(const std::string& real, const std::string& as) const {
+    const auto dir = run_dir_ / ("disguised-" + real + "-as-" + as);
+    std::filesystem::create_directories(dir / "identities");
+    for (const char* file : {"ca.cert.pem", "governance.p7s"})
+      std::filesystem::copy_file(std::filesystem::path(credentials_) / file, dir / file);
+    for (const char* suffix : {".cert.pem", ".key.pem", ".permissions.p7s"})
+      std::filesystem::copy_file(
+          std::filesystem::path(credentials_) / "identities" / (real + suffix),
+          dir / "identities" / (as + suffix));
+    return dir.string();
+  }
   std::string credentials_;
 };
 
@@ -82,19 +95,48 @@ TEST_F(DdsSecurity, SecuredRobotIsServedAndStrangersGetNothing) {
   ASSERT_TRUE(status && status->ok());
 }
 
-TEST_F(DdsSecurity, RobotCannotWriteOnAnotherRobotsTopic) {
-  // drone_1's credentials presented as drone_0: its permissions allow drone_1's topics only,
-  // and the subject of drone_0's permissions is not its certificate's.
-  const auto forged = run_dir_ / "forged";
-  std::filesystem::create_directories(forged / "identities");
-  for (const char* file : {"ca.cert.pem", "governance.p7s"})
-    std::filesystem::copy_file(std::filesystem::path(credentials_) / file, forged / file);
-  for (const char* suffix : {".cert.pem", ".key.pem", ".permissions.p7s"})
-    std::filesystem::copy_file(
-        std::filesystem::path(credentials_) / "identities" / (std::string("drone_1") + suffix),
-        forged / "identities" / (std::string("drone_0") + suffix));
+// Credentials of the right shape, from another CA: authentication fails, nothing is matched,
+// while a robot of the fleet is served.
+TEST_F(DdsSecurity, ParticipantCertifiedByAnotherCaIsNeverMatched) {
+  const auto other = (run_dir_ / "other-ca").string();
+  mission::write_fleet_credentials({other, {"drone_1"}}, null_logger());
+  StationConfig config = station_config();
+  config.dds.security = {true, credentials_};
+  auto station = start_station(config);
+  DdsSettings impostor_settings = dds();
+  impostor_settings.security = {true, other};
+  auto impostor = make_dds_agent_link(impostor_settings, "drone_1", null_logger());
+  auto robot = make_dds_agent_link(secured(), "drone_0", null_logger());
+  const auto ack = deliver(*robot, keyframe("drone_0", 0), seconds(30));
+  ASSERT_TRUE(ack.has_value());
+  impostor->publish(keyframe("drone_1", 0));
+  EXPECT_EQ(impostor->matched_stations(), 0u);
+  ASSERT_TRUE(deliver(*robot, keyframe("drone_0", 1), seconds(20)).has_value());
+  EXPECT_EQ(stored_counts().count("drone_1"), 0u);
+  EXPECT_TRUE(impostor->take_acks("drone_0", milliseconds(0)).empty());  // reads no acks either
+
+  station->signal(SIGTERM);
+  const auto status = station->wait_for(seconds(30));
+  ASSERT_TRUE(status && status->ok());
+}
+
+// Only the station may acknowledge: a robot's credentials cannot make an acknowledgement writer,
+// so no forged ack can make a robot drop its copy.
+TEST_F(DdsSecurity, RobotCannotPublishAcknowledgements) {
   DdsSettings settings = dds();
-  settings.security = {true, forged.string()};
+  settings.security = {true, disguised("drone_1", kStationIdentity)};
+  try {
+    auto forger = make_dds_station_link(settings, null_logger());
+    FAIL() << "an acknowledgement writer was created with drone_1's credentials";
+  } catch (const StartupError& e) {
+    EXPECT_NE(std::string(e.what()).find(kKeyframeAckTopic), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(DdsSecurity, RobotCannotWriteOnAnotherRobotsTopic) {
+  // drone_1's credentials presented as drone_0: its permissions allow drone_1's topics only.
+  DdsSettings settings = dds();
+  settings.security = {true, disguised("drone_1", "drone_0")};
   try {
     auto link = make_dds_agent_link(settings, "drone_0", null_logger());
     FAIL() << "a writer on drone_0's topic was created with drone_1's credentials";

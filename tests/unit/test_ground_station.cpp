@@ -25,7 +25,9 @@ namespace {
 
 using keyfleet::test::FakeStationLink;
 
-ReceivedKeyframe received(const Keyframe& k) { return ReceivedKeyframe{k, k.image.size() + 200}; }
+ReceivedKeyframe received(const Keyframe& k) {
+  return ReceivedKeyframe{k, k.image.size() + 200, {}};
+}
 
 Keyframe corrupt_keyframe(const std::string& robot, std::uint64_t sequence) {
   Keyframe k = keyfleet::test::make_valid_keyframe(robot, sequence);

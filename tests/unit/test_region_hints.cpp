@@ -250,7 +250,7 @@ TEST_F(LyingHintsAtTheStation, KeyframeIsStoredWithItsRegionsFixedAndTheRobotWar
   for (std::uint64_t seq = 0; seq < 3; ++seq) {
     Keyframe k = test::make_valid_keyframe("liar", seq);  // 64 x 48
     k.text_regions = {{60, 40, 100, 100}, {64, 0, 5, 5}, {1, 2, 3, 4}};
-    const KeyframeAck ack = station.handle({k, 1000}, 1);
+    const KeyframeAck ack = station.handle({k, 1000, {}}, 1);
     EXPECT_EQ(ack.status, AckStatus::kStored) << ack.reason;
   }
   ASSERT_EQ(stored.size(), 3u);
