@@ -10,7 +10,7 @@ set -euo pipefail
 
 # Configures the project and compiles its programs (tests and benchmarks off).
 BUILD_PACKAGES=(
-  build-essential cmake ninja-build pkg-config git ca-certificates
+  build-essential cmake ninja-build pkg-config git ca-certificates ccache
   libfastrtps-dev libfastcdr-dev fastddsgen fastdds-tools
   libopencv-dev libopencv-contrib-dev
   libeigen3-dev
