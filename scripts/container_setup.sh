@@ -5,7 +5,7 @@
 #     (default /var/lib/keyfleet-containers), never into /etc/containers or ~/.config: runtime runc
 #     (crun fails here: "cgroups in hybrid mode not supported") and default ulimits no higher than
 #     this machine's hard limits (podman's defaults fail with "setrlimit RLIMIT_NOFILE: Operation
-#     not permitted"); images and containers are stored in that folder too;
+#     not permitted"); images, containers and build caches are stored in that folder too;
 #  3. makes the Debian 12 base image (debootstrap --variant=minbase bookworm from the apt mirror
 #     this machine uses, podman import as debian:12) unless it is already there: no image registry
 #     is needed, `FROM debian:12` builds without a pull.
@@ -56,7 +56,7 @@ fi
 
 # 2. Configuration of its own. The run-time state goes to a tmpfs folder named after $dir, so
 # that two such folders on one machine never share it and a reboot clears it.
-mkdir -p "$dir/storage"
+mkdir -p "$dir/storage" "$dir/tmp"
 run_state=/run/keyfleet-containers-$(printf '%s' "$dir" | sha1sum | cut -c1-10)
 nofile=$(ulimit -Hn)
 [ "$nofile" = unlimited ] && nofile=1048576
@@ -80,6 +80,8 @@ runtime = "runc"
 cgroup_manager = "$cgroup_manager"
 events_logger = "file"
 tmp_dir = "$run_state/libpod"
+# Builds' temporary files and their cache mounts (the build stage's ccache) stay in this folder.
+image_copy_tmp_dir = "$dir/tmp"
 
 [network]
 network_backend = "netavark"
