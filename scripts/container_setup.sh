@@ -50,7 +50,8 @@ if [ ${#missing[@]} -gt 0 ]; then
   apt-get update -qq
   # podman's recommends bring fuse-overlayfs/slirp4netns (rootless only) and buildah, which
   # rootful podman does not need; netavark with aardvark-dns (named explicitly: without them podman
-  # 4.3 falls back to CNI, whose networks resolve no container names) is its network stack.
+  # 4.3 falls back to CNI, which resolves container names only with a further plugin) is its
+  # network stack.
   apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
 
