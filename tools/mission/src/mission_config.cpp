@@ -17,6 +17,7 @@ void visit(V& v, MissionConfig& c) {
   v.field("station_drain_timeout_s", c.station_drain_timeout_s, positive());
   v.field("scenario", c.scenario);
   v.field("scenario_dir", c.scenario_dir);
+  v.field("scenario_drones", c.scenario_drones, between(0, 64));
   v.section("agent", c.agent);
   v.section("station", c.station);
 }

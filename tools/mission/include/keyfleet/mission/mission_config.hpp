@@ -20,7 +20,8 @@ struct MissionConfig {
   // sets the drones (one agent per scenario drone, source kind scenario).
   std::string scenario;
   std::string scenario_dir;
-  AgentConfig agent;  // template for every drone; seed += drone index
+  int scenario_drones = 0;  // fly only the scenario's first this many drones; 0 = all
+  AgentConfig agent;        // template for every drone; seed += drone index
   StationConfig station;
 };
 

@@ -16,12 +16,22 @@ struct MissionBinaries {
   std::string ground_station;
 };
 
+// One process of a mission: where it wrote its files and the CPU it used (all its threads).
+struct ProcessFigures {
+  std::string name;
+  std::string run_dir;
+  double cpu_s = 0;
+};
+
 struct MissionResult {
   bool ok = false;
   std::string run_dir;
   std::string report_table;           // the station's bandwidth report
   std::string scenario_dir;           // the scenario replayed, when there was one
   std::vector<std::string> failures;  // one line per failed process, saying why
+  std::vector<ProcessFigures> agents;
+  ProcessFigures station;
+  double agents_wall_s = 0;  // from starting the agents to the last one's end
 };
 
 // Optional changes to how a mission's processes run (the bandwidth experiment's links).
