@@ -19,6 +19,7 @@
 #include "keyfleet/agent/image_quality.hpp"
 #include "keyfleet/agent/keyframe_selector.hpp"
 #include "keyfleet/agent/keyframe_trigger.hpp"
+#include "keyfleet/agent/klt_trigger.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/process_tuning.hpp"
 #include "keyfleet/eval/image_quality_reference.hpp"
@@ -246,13 +247,23 @@ void BM_OrbSlamTrigger(benchmark::State& state) {  // arg: image scale in percen
 }
 BENCHMARK(BM_OrbSlamTrigger)->Arg(50)->Arg(100)->Unit(benchmark::kMillisecond);
 
+void BM_KltTrigger(benchmark::State& state) {  // arg: image scale in percent
+  agent::KltTriggerParams params;
+  params.image_scale = double(state.range(0)) / 100;
+  agent::KltSlamTrigger trigger(params);
+  std::size_t i = 0;
+  for (auto _ : state) benchmark::DoNotOptimize(trigger.is_keyframe(flight().frames[i++ % 150]));
+}
+BENCHMARK(BM_KltTrigger)->Arg(50)->Arg(100)->Unit(benchmark::kMillisecond);
+
 // The whole selection, amortised per frame over the flight: strategy quality, or full with the
-// shipped MiniNet at its configured input size (one thread); the ORB-SLAM trigger included or
-// replaced by a stride (the trigger's cost is the difference).
+// shipped MiniNet at its configured input size (one thread); trigger 0 = a stride (no cost, the
+// others' cost is the difference), 1 = orbslam, 2 = klt (on the quality stage's grey image).
 void BM_SelectionPerFrame(benchmark::State& state) {
   SelectorConfig config;
-  config.trigger.kind =
-      state.range(0) ? TriggerConfig::Kind::kOrbSlam : TriggerConfig::Kind::kStride;
+  const TriggerConfig::Kind kinds[] = {TriggerConfig::Kind::kStride, TriggerConfig::Kind::kOrbSlam,
+                                       TriggerConfig::Kind::kKlt};
+  config.trigger.kind = kinds[state.range(0)];
   config.strategy =
       state.range(1) ? SelectorConfig::Strategy::kFull : SelectorConfig::Strategy::kQuality;
   std::size_t frames = 0;
@@ -267,8 +278,8 @@ void BM_SelectionPerFrame(benchmark::State& state) {
       benchmark::Counter(double(frames), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_SelectionPerFrame)
-    ->ArgNames({"orbslam_trigger", "full"})
-    ->ArgsProduct({{0, 1}, {0, 1}})
+    ->ArgNames({"trigger", "full"})
+    ->ArgsProduct({{0, 1, 2}, {0, 1}})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(2);
 

@@ -41,6 +41,7 @@ template <>
 struct EnumNames<TriggerConfig::Kind> {
   static constexpr std::pair<TriggerConfig::Kind, const char*> kAll[] = {
       {TriggerConfig::Kind::kOrbSlam, "orbslam"},
+      {TriggerConfig::Kind::kKlt, "klt"},
       {TriggerConfig::Kind::kStride, "stride"},
       {TriggerConfig::Kind::kList, "list"}};
 };
@@ -94,6 +95,11 @@ std::optional<VerifierKind> verifier_kind(const std::string& name) {
   return enum_from_name<VerifierKind>(name);
 }
 std::string verifier_kind_choices() { return enum_choices<VerifierKind>(); }
+std::optional<TriggerConfig::Kind> trigger_kind(const std::string& name) {
+  return enum_from_name<TriggerConfig::Kind>(name);
+}
+std::string trigger_kind_choices() { return enum_choices<TriggerConfig::Kind>(); }
+std::string to_string(TriggerConfig::Kind kind) { return enum_name(kind); }
 
 ConfigReader::ConfigReader(YAML::Node node, std::string origin, std::string path)
     : node_(std::move(node)), origin_(std::move(origin)), path_(std::move(path)) {
@@ -192,6 +198,19 @@ void visit(V& v, SourceConfig& c) {
 }
 
 template <class V>
+void visit(V& v, KltConfig& c) {
+  v.field("max_points", c.max_points, between(16, 20000));
+  v.field("cell_px", c.cell_px, between(4, 1000));
+  v.field("fast_threshold", c.fast_threshold, between(1, 255));
+  v.field("window_px", c.window_px, between(5, 101));
+  v.field("pyramid_levels", c.pyramid_levels, between(1, 8));
+  v.field("iterations", c.iterations, between(1, 100));
+  v.field("max_error", c.max_error, between(1.0, 255.0));
+  v.field("border_px", c.border_px, between(0, 1000));
+  v.field("ref_ratio", c.ref_ratio, between(0.1, 1.0));
+}
+
+template <class V>
 void visit(V& v, TriggerConfig& c) {
   v.field("kind", c.kind);
   v.field("stride", c.stride, between(1, 100000));
@@ -204,6 +223,7 @@ void visit(V& v, TriggerConfig& c) {
   v.field("mapping_busy_frames", c.mapping_busy_frames, between(0, 1000));
   v.field("ref_ratio", c.ref_ratio, between(0.1, 1.0));
   v.field("min_inliers", c.min_inliers, between(8, 10000));
+  v.section("klt", c.klt);
 }
 
 template <class V>

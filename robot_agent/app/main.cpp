@@ -1,6 +1,7 @@
 // robot_agent: composition root of one robot's keyframe pipeline.
 #include <CLI/CLI.hpp>
 
+#include <ctime>
 #include <filesystem>
 #include <iostream>
 
@@ -46,7 +47,13 @@ int run(const ProcessOptions& options, const std::string& robot_id) {
                                 *link, clock, logger);
   agent::AgentRunner runner(config, *source, pipeline, *link, clock, logger);
 
-  switch (runner.run(shutdown.stop)) {
+  const agent::AgentOutcome outcome = runner.run(shutdown.stop);
+  const std::string summary_path =
+      (std::filesystem::path(options.run_dir) / "stream.json").string();
+  if (!agent::write_stream_summary(summary_path, runner.summary(), clock.snapshot(),
+                                   double(std::clock()) / CLOCKS_PER_SEC))  // all threads
+    logger->warn("cannot write {}", summary_path);
+  switch (outcome) {
     case agent::AgentOutcome::kDelivered: return 0;
     case agent::AgentOutcome::kStopped:
       logger->info("stopped by signal {}; {} keyframe(s) kept in {}", shutdown.received(),

@@ -2,6 +2,9 @@
 
 #include "keyfleet/common/clock.hpp"
 
+#include <algorithm>
+#include <fstream>
+
 namespace keyfleet::agent {
 namespace {
 
@@ -47,7 +50,9 @@ bool AgentRunner::wait_for_station(const StopToken& stop) {
 void AgentRunner::stream(const StopToken& stop) {
   const auto start = Clock::now();
   const double fps = source_.fps();
-  std::uint64_t frames = 0;
+  summary_ = StreamSummary{};
+  summary_.fps = fps;
+  std::uint64_t& frames = summary_.frames;
   while (!stop.requested()) {
     std::optional<Frame> frame;
     {
@@ -55,6 +60,13 @@ void AgentRunner::stream(const StopToken& stop) {
       frame = source_.next();
     }
     if (!frame) break;
+    if (config_.source.realtime) {
+      const double lag_ms =
+          std::chrono::duration<double, std::milli>(Clock::now() - start).count() -
+          1e3 * static_cast<double>(frames) / fps;
+      summary_.max_lag_ms = std::max(summary_.max_lag_ms, lag_ms);
+      if (lag_ms > 1e3 / fps) ++summary_.late_frames;
+    }
     agent_.process(*frame, wall_time_ns());
     ++frames;
     if (config_.source.realtime) {
@@ -69,7 +81,9 @@ void AgentRunner::stream(const StopToken& stop) {
     }
   }
   agent_.finish_stream(wall_time_ns());
-  logger_->info("stream ended after {} frames", frames);
+  summary_.stream_s = std::chrono::duration<double>(Clock::now() - start).count();
+  logger_->info("stream ended after {} frames in {:.2f} s ({:.2f} s of flight), {} late", frames,
+                summary_.stream_s, summary_.flight_s(), summary_.late_frames);
 }
 
 AgentOutcome AgentRunner::drain(const StopToken& stop) {
@@ -98,6 +112,21 @@ AgentOutcome AgentRunner::run(const StopToken& stop) {
       s.frames_seen, s.keyframes_sent, s.bytes_sent, s.keyframes_resent, s.keyframes_pending,
       s.keyframes_dropped, agent_.rejected());
   return outcome;
+}
+
+bool write_stream_summary(const std::string& path, const StreamSummary& summary,
+                          const std::vector<StageTime>& stages, double process_cpu_s) {
+  std::ofstream out(path);
+  out << "{\"frames\": " << summary.frames << ", \"fps\": " << summary.fps
+      << ", \"stream_s\": " << summary.stream_s << ", \"late_frames\": " << summary.late_frames
+      << ", \"max_lag_ms\": " << summary.max_lag_ms << ", \"process_cpu_s\": " << process_cpu_s
+      << ", \"stages\": {";
+  for (std::size_t i = 0; i < stages.size(); ++i)
+    out << (i ? ", " : "") << "\"" << stages[i].stage
+        << "\": {\"cpu_ms\": " << stages[i].cpu_ms_total << ", \"calls\": " << stages[i].calls
+        << "}";
+  out << "}}\n";
+  return bool(out);
 }
 
 }  // namespace keyfleet::agent

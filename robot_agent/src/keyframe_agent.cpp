@@ -27,6 +27,16 @@ Keyframe KeyframeAgent::make_keyframe(const Frame& frame, std::vector<std::uint8
   return keyframe;
 }
 
+const std::vector<std::uint8_t>& KeyframeAgent::encoded(const Frame& frame) {
+  for (const auto& [index, bytes] : encodings_)
+    if (index == frame.index) return bytes;
+  const std::uint64_t reach = std::uint64_t(config_.selector.max_window_frames);
+  while (!encodings_.empty() && encodings_.front().first + reach < frame.index)
+    encodings_.pop_front();
+  encodings_.emplace_back(frame.index, codec_->encode(frame.image));
+  return encodings_.back().second;
+}
+
 void KeyframeAgent::observe_link(std::int64_t now_ns) {
   if (link_.matched_stations() == 0)
     matched_since_ns_.reset();
@@ -42,7 +52,7 @@ void KeyframeAgent::process(const Frame& frame, std::int64_t now_ns) {
   std::optional<std::uint64_t> frame_bytes;
   if (ledger_.should_sample_frame(frame.index) || step.vslam_keyframe) {
     auto scope = clock_.measure("baseline");
-    frame_bytes = link_.serialized_size(make_keyframe(frame, codec_->encode(frame.image)));
+    frame_bytes = link_.serialized_size(make_keyframe(frame, encoded(frame)));
   }
   ledger_.record_frame(ledger_.should_sample_frame(frame.index) ? frame_bytes : std::nullopt);
   if (step.vslam_keyframe) ledger_.record_vslam_keyframe(frame_bytes);
@@ -58,7 +68,7 @@ void KeyframeAgent::publish_selection(const Selection& selection, std::int64_t n
   Keyframe keyframe;
   {
     auto scope = clock_.measure("encode");
-    keyframe = make_keyframe(selection.frame, codec_->encode(selection.frame.image));
+    keyframe = make_keyframe(selection.frame, encoded(selection.frame));
   }
   keyframe.sequence_number = outbox_.next_sequence();
   keyframe.vslam_keyframe_index = selection.vslam_keyframe_index;

@@ -10,6 +10,7 @@
 #include <numeric>
 
 #include "keyfleet/agent/image_quality.hpp"
+#include "keyfleet/agent/klt_trigger.hpp"
 
 namespace keyfleet::agent {
 
@@ -57,7 +58,10 @@ SelectorStep HierarchicalSelector::push(const Frame& frame) {
   buffer_.push_back(score(frame));
   {
     auto scope = clock_->measure("trigger");
-    step.vslam_keyframe = trigger_->is_keyframe(frame);
+    // The quality stage's grey image (when it ran) saves the trigger its own.
+    step.vslam_keyframe = images_.work_grey.empty()
+                              ? trigger_->is_keyframe(frame)
+                              : trigger_->is_keyframe_given_grey(frame, images_.work_grey);
   }
   // A pending window whose future part has arrived is decided now.
   if (pending_ && frame.index >= pending_->last) {
@@ -173,27 +177,46 @@ Selection HierarchicalSelector::resolve(const Window& window) {
   return chosen;
 }
 
-std::unique_ptr<KeyframeSelector> make_selector(const SelectorConfig& config, double fps,
-                                                StageClock* clock) {
-  std::unique_ptr<KeyframeTrigger> trigger;
-  const TriggerConfig& t = config.trigger;
+std::unique_ptr<KeyframeTrigger> make_trigger(const TriggerConfig& t, double fps) {
+  NeedNewKeyframeParams decision;
+  decision.max_frames = t.max_frames > 0 ? t.max_frames : std::max(1, int(std::lround(fps)));
+  decision.mapping_busy_frames = t.mapping_busy_frames;
+  decision.ref_ratio = t.ref_ratio;
+  decision.min_inliers = t.min_inliers;
   switch (t.kind) {
-    case TriggerConfig::Kind::kStride: trigger = std::make_unique<StrideTrigger>(t.stride); break;
-    case TriggerConfig::Kind::kList: trigger = std::make_unique<ListTrigger>(t.list, fps); break;
+    case TriggerConfig::Kind::kStride: return std::make_unique<StrideTrigger>(t.stride);
+    case TriggerConfig::Kind::kList: return std::make_unique<ListTrigger>(t.list, fps);
     case TriggerConfig::Kind::kOrbSlam: {
       OrbSlamTriggerParams p;
       p.orb.features = t.features;
       p.orb.levels = t.levels;
       p.orb.scale_factor = t.scale_factor;
       p.image_scale = t.image_scale;
-      p.max_frames = t.max_frames > 0 ? t.max_frames : std::max(1, int(std::lround(fps)));
-      p.mapping_busy_frames = t.mapping_busy_frames;
-      p.ref_ratio = t.ref_ratio;
-      p.min_inliers = t.min_inliers;
-      trigger = std::make_unique<OrbSlamTrigger>(p);
-      break;
+      p.decision = decision;
+      return std::make_unique<OrbSlamTrigger>(p);
+    }
+    case TriggerConfig::Kind::kKlt: {
+      KltTriggerParams p;
+      p.decision = decision;
+      p.decision.ref_ratio = t.klt.ref_ratio;
+      p.image_scale = t.image_scale;
+      p.max_points = t.klt.max_points;
+      p.cell_px = t.klt.cell_px;
+      p.fast_threshold = t.klt.fast_threshold;
+      p.window_px = t.klt.window_px;
+      p.pyramid_levels = t.klt.pyramid_levels;
+      p.iterations = t.klt.iterations;
+      p.max_error = t.klt.max_error;
+      p.border_px = t.klt.border_px;
+      return std::make_unique<KltSlamTrigger>(p);
     }
   }
+  throw std::invalid_argument("unknown trigger kind");
+}
+
+std::unique_ptr<KeyframeSelector> make_selector(const SelectorConfig& config, double fps,
+                                                StageClock* clock) {
+  std::unique_ptr<KeyframeTrigger> trigger = make_trigger(config.trigger, fps);
   std::unique_ptr<vision::TextSegmenter> segmenter;
   if (config.strategy == SelectorConfig::Strategy::kSemantic ||
       config.strategy == SelectorConfig::Strategy::kFull)

@@ -40,7 +40,7 @@ bool ListTrigger::is_keyframe(const Frame& frame) {
 }
 
 OrbSlamTrigger::OrbSlamTrigger(const OrbSlamTriggerParams& params)
-    : params_(params), extractor_(params.orb) {}
+    : params_(params), extractor_(params.orb), decision_(params.decision) {}
 
 int OrbSlamTrigger::track(const OrbFeatures& current) {
   if (reference_.keypoints.size() < 8 || current.keypoints.size() < 8) return 0;
@@ -109,43 +109,14 @@ bool OrbSlamTrigger::is_keyframe(const Frame& frame) {
   if (params_.image_scale != 1.0)
     cv::resize(grey, grey, {}, params_.image_scale, params_.image_scale, cv::INTER_AREA);
   OrbFeatures current = extractor_.extract(grey);
-
-  auto start_over = [&] {
-    reference_ = std::move(current);
-    shift_ = {0, 0};
-    has_reference_ = true;
-    reference_tracked_ = -1;
-    recent_.clear();
-    frames_since_ = 0;
-    lost_ = 0;
-    return true;
-  };
-  if (!has_reference_) return start_over();
-
-  ++frames_since_;
-  last_inliers_ = track(current);
-  if (last_inliers_ <= params_.min_inliers) {
-    if (++lost_ >= params_.lost_frames) return start_over();  // re-initialise on a new map
-    return false;
+  if (decision_.started()) {
+    last_inliers_ = track(current);
+    if (!decision_.step(last_inliers_)) return false;
   }
-  lost_ = 0;
-  // Single-frame counts jump by +-15 % with blur and noise, where ORB-SLAM2's counts over a
-  // local map do not: both sides of the test use the median of three frames.
-  recent_.push_back(last_inliers_);
-  if (recent_.size() > kSmoothing) recent_.erase(recent_.begin());
-  if (recent_.size() < kSmoothing) return false;
-  std::vector<int> sorted = recent_;
-  std::nth_element(sorted.begin(), sorted.begin() + kSmoothing / 2, sorted.end());
-  const int tracked = sorted[kSmoothing / 2];
-  if (reference_tracked_ < 0) {  // the reference keyframe's trackable points
-    reference_tracked_ = tracked;
-    return false;
-  }
-  const bool timed_out = frames_since_ >= params_.max_frames;
-  const bool mapping_idle = frames_since_ >= params_.mapping_busy_frames;
-  const bool weak_tracking = tracked < params_.ref_ratio * reference_tracked_;
-  if ((timed_out || mapping_idle) && weak_tracking) return start_over();
-  return false;
+  reference_ = std::move(current);
+  shift_ = {0, 0};
+  decision_.restart();
+  return true;
 }
 
 }  // namespace keyfleet::agent

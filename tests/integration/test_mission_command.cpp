@@ -100,5 +100,38 @@ TEST_F(MissionCommand, GeneratesAScenarioAndReplaysEachDroneWithItsPoses) {
   EXPECT_NE(text.str().find("placed by pose"), std::string::npos);
 }
 
+// `keyfleet bench fleet` runs (one agent, a tiny scenario, both modes) and prints its tables;
+// its timings are figures, not checked here.
+TEST_F(MissionCommand, BenchFleetRunsOneAgentInBothModesAndPrintsItsTables) {
+  std::ofstream(run_dir_ / "scenario.yaml")
+      << "name: tiny\nframes_per_drone: 20\nwidth: 320\nheight: 240\n"
+         "street: {length_m: 30}\ndrones: {count: 1}\n";
+  std::ofstream(run_dir_ / "mission.yaml")
+      << "name: bench\nscenario: scenario.yaml\nagent:\n  selector: {strategy: quality, trigger: "
+         "{kind: klt}}\n  dds: {lease_duration_s: 2, announcement_period_s: 0.5}\n"
+         "station: {analysis: {drain_timeout_s: 2}}\n";
+  const auto log = run_dir_ / "bench.out";
+  mission::ChildProcess cli(
+      "keyfleet",
+      {KEYFLEET_CLI_BIN, "bench", "fleet", (run_dir_ / "mission.yaml").string(), "--drones", "1",
+       "--mode", "both", "--out", (run_dir_ / "runs").string()},
+      log.string());
+  const auto status = cli.wait_for(seconds(180));
+  ASSERT_TRUE(status.has_value()) << "keyfleet bench fleet did not finish";
+  std::ifstream in(log);
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string output = text.str();
+  EXPECT_TRUE(status->ok()) << output;
+  EXPECT_TRUE(
+      std::regex_search(output, std::regex(R"(realtime\s+1\s+[0-9.]+\s+[0-9.]+\s+[0-9.]+\s+20\s)")))
+      << output;
+  EXPECT_TRUE(
+      std::regex_search(output, std::regex(R"(fast\s+1\s+[0-9.]+\s+[0-9.]+\s+[0-9.]+\s+20\s)")))
+      << output;
+  EXPECT_NE(output.find("largest N at real time"), std::string::npos) << output;
+  EXPECT_NE(output.find("trigger"), std::string::npos) << "no per-stage table: " << output;
+}
+
 }  // namespace
 }  // namespace keyfleet::testing

@@ -199,7 +199,14 @@ INSTANTIATE_TEST_SUITE_P(
                      "agent.yaml:3: wait_for_station_s", "must be a finite number"},
         BadValueCase{"NegativeInfiniteEdgeContrast",
                      "source:\n  max_frames: 10\nselector:\n  quality:\n    edge_contrast: -.inf\n",
-                     "agent.yaml:5: selector.quality.edge_contrast", "must be a finite number"}),
+                     "agent.yaml:5: selector.quality.edge_contrast", "must be a finite number"},
+        BadValueCase{"NanKltMaxError",
+                     "selector:\n  trigger:\n    kind: klt\n    klt:\n      max_error: .nan\n",
+                     "agent.yaml:5: selector.trigger.klt.max_error", "must be a finite number"},
+        BadValueCase{"KltWindowTooSmall", "selector:\n  trigger:\n    klt:\n      window_px: 3\n",
+                     "agent.yaml:4: selector.trigger.klt.window_px", "must be between 5 and 101"},
+        BadValueCase{"UnknownTriggerKind", "selector:\n  trigger:\n    kind: lidar\n",
+                     "agent.yaml:3: selector.trigger.kind", "orbslam|klt|stride|list"}),
     [](const ::testing::TestParamInfo<BadValueCase>& info) { return info.param.name; });
 
 TEST(ConfigBadValue, StationDomainIdOutOfRangeNamesKey) {

@@ -29,6 +29,9 @@ void add_eval_commands(CLI::App& app);
 void add_ocr_commands(CLI::App& app);
 void add_segmenter_commands(CLI::App& app);
 void add_security_commands(CLI::App& app);
+void add_bench_commands(CLI::App& app);
+// `selection triggers`, under the `selection` subcommand.
+void add_trigger_commands(CLI::App& selection);
 
 // Scores what a run's station read against the scenario it replayed (`keyfleet ocr score`, and
 // the end of `keyfleet mission`): prints it and writes station/text_score.txt. Never throws: a

@@ -184,8 +184,11 @@ int main(int argc, char** argv) {
   evaluate->add_option("--model", eval_model, "ONNX text segmenter for semantic and full")
       ->check(CLI::ExistingFile);
 
+  keyfleet::commands::add_trigger_commands(*selection);
+
   keyfleet::commands::add_segmenter_commands(app);
   keyfleet::commands::add_security_commands(app);
+  keyfleet::commands::add_bench_commands(app);
   keyfleet::commands::add_station_commands(app);
   keyfleet::commands::add_ocr_commands(app);
   keyfleet::commands::add_vocabulary_commands(app);

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <spawn.h>
+#include <sys/resource.h>
 #include <sys/syscall.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -68,9 +69,12 @@ ChildProcess::~ChildProcess() {
 std::optional<ExitStatus> ChildProcess::poll() {
   if (status_) return status_;
   int raw = 0;
-  const pid_t r = waitpid(pid_, &raw, WNOHANG);
+  rusage usage{};
+  const pid_t r = wait4(pid_, &raw, WNOHANG, &usage);
   if (r != pid_) return std::nullopt;
   ExitStatus s;
+  auto seconds = [](const timeval& t) { return double(t.tv_sec) + 1e-6 * double(t.tv_usec); };
+  s.cpu_s = seconds(usage.ru_utime) + seconds(usage.ru_stime);
   s.exited = WIFEXITED(raw);
   s.code = s.exited ? WEXITSTATUS(raw) : WTERMSIG(raw);
   status_ = s;

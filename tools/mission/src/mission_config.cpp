@@ -18,6 +18,7 @@ void visit(V& v, MissionConfig& c) {
   v.field("scenario", c.scenario);
   v.field("scenario_dir", c.scenario_dir);
   v.field("security", c.security);
+  v.field("scenario_drones", c.scenario_drones, between(0, 64));
   v.section("agent", c.agent);
   v.section("station", c.station);
 }

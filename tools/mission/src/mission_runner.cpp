@@ -146,7 +146,8 @@ MissionResult MissionRunner::run(const StopToken& stop) {
   result.scenario_dir = scenario_dir;
   if (!scenario_dir.empty()) {
     for (const auto& drone : scenario::read_scenario(scenario_dir).drones)
-      robot_ids.push_back(drone.robot_id);
+      if (config_.scenario_drones == 0 || int(robot_ids.size()) < config_.scenario_drones)
+        robot_ids.push_back(drone.robot_id);
     config_.agent.source.kind = SourceConfig::Kind::kScenario;
     config_.agent.source.path = fs::absolute(scenario_dir).string();
   } else {
@@ -246,6 +247,7 @@ MissionResult MissionRunner::run(const StopToken& stop) {
     }
     stop.wait_for(milliseconds(100));
   }
+  result.agents_wall_s = std::chrono::duration<double>(Clock::now() - start).count();
   if (stop.requested()) {
     progress_ << "interrupted: stopping agents and station\n";
     result.failures.push_back("mission interrupted by a signal");
@@ -275,6 +277,14 @@ MissionResult MissionRunner::run(const StopToken& stop) {
       result.failures.push_back(failure_line(station, *status));
     }
   }
+  for (std::size_t i = 0; i < agents.size(); ++i) {
+    const auto status = agents[i]->poll();
+    result.agents.push_back(
+        {robot_ids[i], (run_dir / robot_ids[i]).string(), status ? status->cpu_s : 0.0});
+  }
+  const auto station_status = station.poll();
+  result.station = {"ground_station", station_dir.string(),
+                    station_status ? station_status->cpu_s : 0.0};
   std::ifstream report(station_dir / "report.txt");
   std::stringstream table;
   table << report.rdbuf();

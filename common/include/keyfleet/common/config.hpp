@@ -58,24 +58,44 @@ struct SourceConfig {
   std::uint64_t seed = 1;  // kGenerated: scene and flight seed
 };
 
+// Corner tracking of the `klt` trigger (agent/klt_trigger.hpp), in pixels of the frame resized
+// by TriggerConfig::image_scale.
+struct KltConfig {
+  int max_points = 300;    // FAST corners detected on each keyframe
+  int cell_px = 20;        // the strongest corners of each cell are kept (spread over the view)
+  int fast_threshold = 7;  // weakest FAST corner accepted
+  int window_px = 15;      // Lucas-Kanade window side
+  int pyramid_levels = 3;  // 1 = no pyramid
+  int iterations = 10;     // Lucas-Kanade iterations per level at most
+  double max_error = 30;   // mean absolute grey difference of a tracked window, at most (0..255)
+  int border_px = 8;       // corners are detected, and count as tracked, this far inside only
+  // New keyframe when the tracked corners < ref_ratio * nRef (TriggerConfig::ref_ratio is the
+  // ORB trigger's). A KLT corner, tracked from the keyframe's own pixels and never re-detected,
+  // outlives an ORB match: 0.95 here gives the ORB trigger's keyframe rate at its 0.9 on
+  // generated streets (README, "A cheaper V-SLAM trigger").
+  double ref_ratio = 0.95;
+};
+
 // The V-SLAM keyframe trigger whose keyframes anchor the selection windows.
 struct TriggerConfig {
   enum class Kind {
-    kOrbSlam,  // ORB-SLAM2's NeedNewKeyFrame on tracked ORB features
+    kOrbSlam,  // ORB-SLAM2's NeedNewKeyFrame on ORB features matched to the reference keyframe
+    kKlt,      // the same decision on FAST corners tracked by pyramidal KLT (cheaper)
     kStride,   // every `stride` frames
     kList,     // the timestamps of an ORB-SLAM KeyFrameTrajectory.txt (TUM format)
   };
-  Kind kind = Kind::kOrbSlam;
+  Kind kind = Kind::kKlt;  // as cheap as a third of orbslam, the same keyframes (README)
   int stride = 15;
   std::string list;
-  int features = 1000;  // ORB features per frame
-  int levels = 8;
+  int features = 1000;  // orbslam: ORB features per frame
+  int levels = 8;       // orbslam: pyramid levels
   double scale_factor = 1.2;
-  double image_scale = 0.5;     // frames are resized by this before extraction
+  double image_scale = 0.5;     // orbslam, klt: frames are resized by this before tracking
   int max_frames = 0;           // ORB-SLAM2 mMaxFrames; 0 = the source's fps
   int mapping_busy_frames = 2;  // local mapping stays busy this long after a keyframe
   double ref_ratio = 0.9;       // new keyframe when inliers < ref_ratio * nRef
   int min_inliers = 15;
+  KltConfig klt;
 };
 
 struct QualityConfig {
@@ -318,5 +338,8 @@ std::string selection_strategy_choices();  // "vslam|quality|semantic|full"
 std::string to_string(SelectorConfig::Strategy strategy);
 std::optional<VerifierKind> verifier_kind(const std::string& name);
 std::string verifier_kind_choices();
+std::optional<TriggerConfig::Kind> trigger_kind(const std::string& name);
+std::string trigger_kind_choices();  // "orbslam|klt|stride|list"
+std::string to_string(TriggerConfig::Kind kind);
 
 }  // namespace keyfleet

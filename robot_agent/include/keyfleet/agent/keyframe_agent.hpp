@@ -1,8 +1,11 @@
 #pragma once
 #include <chrono>
+#include <deque>
 #include <memory>
 #include <optional>
 #include <set>
+#include <utility>
+#include <vector>
 
 #include "keyfleet/agent/bandwidth_ledger.hpp"
 #include "keyfleet/agent/keyframe_selector.hpp"
@@ -40,6 +43,8 @@ class KeyframeAgent {
   void publish_selection(const Selection& selection, std::int64_t now_ns);
   void observe_link(std::int64_t now_ns);
   Keyframe make_keyframe(const Frame& frame, std::vector<std::uint8_t> image) const;
+  // The frame's JPEG: encoded once, whether for a baseline measurement or for publication.
+  const std::vector<std::uint8_t>& encoded(const Frame& frame);
 
   AgentConfig config_;
   std::unique_ptr<KeyframeSelector> selector_;
@@ -52,6 +57,8 @@ class KeyframeAgent {
   std::uint64_t rejected_ = 0;
   std::set<std::uint64_t> never_sent_;            // in the outbox, first write failed
   std::optional<std::int64_t> matched_since_ns_;  // a station matched since, without a break
+  // Encodings of recent frames, oldest first; none older than a selection window can reach.
+  std::deque<std::pair<std::uint64_t, std::vector<std::uint8_t>>> encodings_;
 };
 
 }  // namespace keyfleet::agent

@@ -83,6 +83,10 @@ class HierarchicalSelector final : public KeyframeSelector {
   QualityImages images_;  // the per-frame scoring's buffers
 };
 
+// The configured V-SLAM trigger; max_frames 0 means `fps`. Throws StartupError when a keyframe
+// list cannot be read.
+std::unique_ptr<KeyframeTrigger> make_trigger(const TriggerConfig& config, double fps);
+
 // Builds the configured trigger, segmenter (for the semantic strategies) and selector.
 // Throws StartupError when a model or keyframe list cannot be used.
 std::unique_ptr<KeyframeSelector> make_selector(const SelectorConfig& config, double fps,

@@ -6,6 +6,7 @@
 
 #include "keyfleet/agent/frame_source.hpp"
 #include "keyfleet/agent/grid_orb_extractor.hpp"
+#include "keyfleet/agent/need_new_keyframe.hpp"
 
 namespace keyfleet::agent {
 
@@ -13,6 +14,12 @@ class KeyframeTrigger {
  public:
   virtual ~KeyframeTrigger() = default;
   virtual bool is_keyframe(const Frame& frame) = 0;
+  // The same decision, given the frame already in grey at some size (the quality stage's): a
+  // trigger that works at that size takes it instead of making its own.
+  virtual bool is_keyframe_given_grey(const Frame& frame, const cv::Mat& grey) {
+    (void)grey;
+    return is_keyframe(frame);
+  }
 };
 
 class StrideTrigger final : public KeyframeTrigger {
@@ -41,50 +48,37 @@ class ListTrigger final : public KeyframeTrigger {
 
 struct OrbSlamTriggerParams {
   GridOrbParams orb;
-  double image_scale = 0.5;     // frames are resized by this before feature extraction
-  int max_frames = 30;          // ORB-SLAM2 mMaxFrames (= fps)
-  int mapping_busy_frames = 2;  // local mapping is busy this long after a keyframe
-  double ref_ratio = 0.9;       // monocular thRefRatio
-  int min_inliers = 15;
-  int lost_frames = 5;           // tracking lost this long: start again with a new keyframe
-  double ransac_px = 1.0;        // epipolar distance threshold at full resolution
+  NeedNewKeyframeParams decision;
+  double image_scale = 0.5;      // frames are resized by this before feature extraction
+  double ransac_px = 1.0;        // epipolar distance threshold, pixels of the resized image
   double search_radius_px = 24;  // guided matching radius at full resolution
   int max_hamming = 50;          // ORB-SLAM2 TH_LOW
   double nn_ratio = 0.9;
 };
 
-// Emulates ORB-SLAM2's monocular Tracking::NeedNewKeyFrame on ORB features tracked against
-// the reference (last) keyframe. Matching is guided as ORB-SLAM2's is: each reference feature
-// is searched for within a radius around where a constant-velocity model puts it (the image
-// shift of the previous frame), at a neighbouring scale, best Hamming distance under
-// max_hamming and nn_ratio times the second best. inliers = matches consistent with a
-// fundamental matrix (RANSAC); nRef = the reference keyframe's features that the first frame
-// after it tracked (its trackable map points); both counts are medians over three frames.
-// A new keyframe when
-//   (frames since the last >= max_frames  OR  local mapping idle)
-//   AND inliers < ref_ratio * nRef  AND  inliers > min_inliers.
+// Emulates ORB-SLAM2's monocular Tracking::NeedNewKeyFrame (need_new_keyframe.hpp) on ORB
+// features tracked against the reference (last) keyframe. Matching is guided as ORB-SLAM2's
+// is: each reference feature is searched for within a radius around where a constant-velocity
+// model puts it (the image shift of the previous frame), at a neighbouring scale, best Hamming
+// distance under max_hamming and nn_ratio times the second best. inliers = matches consistent
+// with a fundamental matrix (RANSAC).
 class OrbSlamTrigger final : public KeyframeTrigger {
  public:
   explicit OrbSlamTrigger(const OrbSlamTriggerParams& params);
   bool is_keyframe(const Frame& frame) override;
 
   int last_inliers() const { return last_inliers_; }
-  int reference_tracked() const { return reference_tracked_; }
+  int reference_tracked() const { return decision_.reference_tracked(); }
 
  private:
   int track(const OrbFeatures& current);  // inliers against the reference keyframe
 
   OrbSlamTriggerParams params_;
   GridOrbExtractor extractor_;
+  NeedNewKeyframe decision_;
   OrbFeatures reference_;
-  bool has_reference_ = false;
-  int reference_tracked_ = -1;  // nRef; -1 until the first frame after the keyframe
-  int frames_since_ = 0;
-  int lost_ = 0;
   int last_inliers_ = 0;
   cv::Point2f shift_{0, 0};  // image motion of the reference features in the last frame
-  static constexpr std::size_t kSmoothing = 3;
-  std::vector<int> recent_;  // inlier counts of the last frames since the keyframe
 };
 
 }  // namespace keyfleet::agent

@@ -11,6 +11,7 @@ namespace keyfleet::mission {
 struct ExitStatus {
   bool exited = false;  // false: killed by a signal
   int code = 0;         // exit code, or the signal number
+  double cpu_s = 0;     // user + system CPU seconds the child used, all its threads
   bool ok() const { return exited && code == 0; }
   std::string describe() const;
 };

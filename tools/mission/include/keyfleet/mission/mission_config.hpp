@@ -20,6 +20,7 @@ struct MissionConfig {
   // sets the drones (one agent per scenario drone, source kind scenario).
   std::string scenario;
   std::string scenario_dir;
+  int scenario_drones = 0;  // fly only the scenario's first this many drones; 0 = all
   // DDS-Security for every participant: throwaway credentials (fleet_credentials.hpp) made into
   // <run folder>/security at start. false: plain DDS, anyone on the domain can read and write.
   bool security = true;

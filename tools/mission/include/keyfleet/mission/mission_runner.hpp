@@ -17,6 +17,13 @@ struct MissionBinaries {
   std::string ground_station;
 };
 
+// One process of a mission: where it wrote its files and the CPU it used (all its threads).
+struct ProcessFigures {
+  std::string name;
+  std::string run_dir;
+  double cpu_s = 0;
+};
+
 struct MissionResult {
   bool ok = false;
   std::string run_dir;
@@ -25,6 +32,9 @@ struct MissionResult {
   std::string dashboard_url;          // the station's live dashboard, when it served one
   std::string report_html;            // <run_dir>/report.html, when written
   std::vector<std::string> failures;  // one line per failed process, saying why
+  std::vector<ProcessFigures> agents;
+  ProcessFigures station;
+  double agents_wall_s = 0;  // from starting the agents to the last one's end
 };
 
 // Optional changes to how a mission's processes run (the bandwidth experiment's links).

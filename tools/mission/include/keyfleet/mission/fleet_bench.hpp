@@ -1,0 +1,88 @@
+#pragma once
+// `keyfleet bench fleet`: how many agents (plus the station) keep real time on this machine.
+// Each N runs as a real mission (separate processes, their own DDS domain and partition) on
+// the first N drones of one generated scenario; the figures come from each agent's
+// stream.json, the processes' CPU (wait4) and the station's database.
+#include <map>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "keyfleet/common/config.hpp"
+#include "keyfleet/common/logging.hpp"
+#include "keyfleet/common/shutdown_signal.hpp"
+#include "keyfleet/common/types.hpp"
+#include "keyfleet/mission/mission_runner.hpp"
+
+namespace keyfleet::mission {
+
+struct FleetBenchOptions {
+  std::string mission_config;  // agent and station settings, and the scenario YAML
+  std::string scenario_dir;    // a scenario generated before (enough drones), else generated
+  std::vector<int> drones = {1, 2, 4, 6};
+  std::uint64_t frames = 0;  // frames per drone when generating; 0 = the scenario's
+  bool realtime = true;      // replay at the camera's rate
+  bool fast = false;         // also as fast as possible
+  std::optional<TriggerConfig::Kind> trigger;  // overrides the mission's
+  std::string out = "runs";
+  // Real time: every agent's flight time / stream time at least this (a 20 s flight replayed
+  // within 0.4 s of its schedule at 0.98).
+  double realtime_threshold = 0.98;
+};
+
+// What one agent's stream.json says.
+struct AgentStreamFigures {
+  std::string robot_id;
+  std::uint64_t frames = 0;
+  double fps = 0;
+  double stream_s = 0;
+  std::uint64_t late_frames = 0;
+  double max_lag_ms = 0;
+  double process_cpu_s = 0;
+  std::map<std::string, StageTime> stages;
+};
+// Throws std::runtime_error naming the file when it is missing or malformed.
+AgentStreamFigures read_stream_summary(const std::string& path, const std::string& robot_id);
+
+// The station's analysis, summed over the keyframes it analysed (wall ms in its workers).
+struct StationFigures {
+  double cpu_s = 0;
+  std::uint64_t keyframes = 0;
+  double text_ms = 0, places_ms = 0;
+};
+
+struct FleetRunFigures {
+  int drones = 0;
+  bool realtime = true;
+  double wall_s = 0;                 // the agents' replay, from starting them to the last one's end
+  double rtf_min = 0, rtf_mean = 0;  // flight time / stream time over the agents
+  std::uint64_t frames = 0, late_frames = 0;
+  double max_lag_ms = 0;
+  double agent_cpu_ms_per_frame = 0;                 // agents' processes, all threads
+  std::map<std::string, double> stage_ms_per_frame;  // agents' stages, calling thread
+  double station_cpu_ms_per_frame = 0;
+  std::uint64_t station_keyframes = 0;
+  double station_text_ms_per_keyframe = 0, station_places_ms_per_keyframe = 0;
+  double frames_per_s_per_core = 0;  // all agents' frames / wall time / cores
+  bool keeps_realtime = false;
+  std::vector<std::string> failures;
+};
+
+// The arithmetic of one run, from its parts (tested on hand-made timings).
+FleetRunFigures fleet_figures(int drones, bool realtime,
+                              const std::vector<AgentStreamFigures>& agents,
+                              const StationFigures& station, double wall_s, unsigned cores,
+                              double realtime_threshold);
+
+// The largest N among the real-time runs whose every run up to it kept real time.
+std::optional<int> largest_realtime(const std::vector<FleetRunFigures>& runs);
+
+// The figures as a text table, then the per-stage CPU table.
+std::string format_fleet_table(const std::vector<FleetRunFigures>& runs, unsigned cores);
+
+std::vector<FleetRunFigures> run_fleet_bench(const FleetBenchOptions& options,
+                                             const MissionBinaries& binaries, Logger logger,
+                                             std::ostream& progress, const StopToken& stop);
+
+}  // namespace keyfleet::mission
