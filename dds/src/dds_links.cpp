@@ -6,6 +6,7 @@
 #include <mutex>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "dds_participant.hpp"
@@ -126,21 +127,26 @@ class RobotTopicDiscovery final : public fdds::DomainParticipantListener {
     const std::string topic = info.info.topicName().to_string();
     for (const std::string prefix : {kKeyframeTopicPrefix, kAgentStatsTopicPrefix})
       if (topic.size() > prefix.size() && topic.compare(0, prefix.size(), prefix) == 0) {
+        const std::string robot = topic.substr(prefix.size());
         std::lock_guard<std::mutex> lock(mutex_);
-        if (robots_.size() < kMaxRobotTopics)
-          robots_.insert(topic.substr(prefix.size()));
-        else
-          refused_ = true;
+        if (announced_.count(robot) == 0) {
+          if (announced_.size() < kMaxRobotTopics) {
+            announced_.insert(robot);
+            fresh_.push_back(robot);
+          } else {
+            refused_ = true;
+          }
+        }
         wake_.set_trigger_value(true);
       }
   }
 
-  // Robots announced so far; `refused` tells whether some were over the bound.
-  std::set<std::string> robots(bool& refused) {
+  // Robots announced since the last call; `refused` tells whether some were over the bound.
+  std::vector<std::string> take_new(bool& refused) {
     std::lock_guard<std::mutex> lock(mutex_);
     wake_.set_trigger_value(false);
     refused = refused_;
-    return robots_;
+    return std::exchange(fresh_, {});
   }
 
   fdds::GuardCondition& wake() { return wake_; }
@@ -150,7 +156,8 @@ class RobotTopicDiscovery final : public fdds::DomainParticipantListener {
 
  private:
   std::mutex mutex_;
-  std::set<std::string> robots_;
+  std::set<std::string> announced_;
+  std::vector<std::string> fresh_;  // announced, not taken yet
   bool refused_ = false;
   fdds::GuardCondition wake_;
 };
@@ -228,8 +235,7 @@ class DdsStationLink final : public StationLink {
 
   void subscribe_new_robots() {
     bool refused = false;
-    for (const auto& robot_id : discovery_.robots(refused)) {
-      if (!subscribed_.insert(robot_id).second) continue;
+    for (const auto& robot_id : discovery_.take_new(refused)) {
       RobotReaders readers;
       readers.robot_id = robot_id;
       readers.keyframes = participant_.reader(
@@ -259,7 +265,6 @@ class DdsStationLink final : public StationLink {
   fdds::TypeSupport ack_type_;
   std::vector<RobotReaders> robots_;
   std::vector<fdds::DataReader*> readers_;
-  std::set<std::string> subscribed_;
   bool warned_refused_ = false;
   fdds::DataWriter* ack_writer_ = nullptr;
   fdds::WaitSet waitset_;

@@ -100,11 +100,13 @@ KeyframeStore::KeyframeStore(const std::string& path, SqliteDb::Mode mode) : db_
   if (mode == SqliteDb::Mode::kReadOnly) {
     auto columns = db_.prepare("SELECT 1 FROM pragma_table_info('keyframes') WHERE name = ?");
     has_text_regions_ = columns.bind(1, std::string("text_regions")).step();
-    auto tables = db_.prepare("SELECT 1 FROM sqlite_master WHERE name = 'agent_stats_history'");
-    has_stats_history_ = tables.step();
-    has_conflicts_ = db_.prepare("SELECT 1 FROM sqlite_master WHERE type='table' AND name=?")
-                         .bind(1, std::string("conflicts"))
-                         .step();
+    auto has_table = [this](const std::string& name) {
+      return db_.prepare("SELECT 1 FROM sqlite_master WHERE type='table' AND name=?")
+          .bind(1, name)
+          .step();
+    };
+    has_stats_history_ = has_table("agent_stats_history");
+    has_conflicts_ = has_table("conflicts");
     return;
   }
   db_.exec(kSchema);

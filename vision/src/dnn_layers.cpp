@@ -175,38 +175,20 @@ class DepthwiseLayer final : public cv::dnn::Layer {
   cv::Mat weights_, bias_;
 };
 
-// 1x1 convolution, stride 1, no padding, one group, by avx2_product.hpp; an activation after it
-// is applied as each stripe of columns is done.
-class PointwiseLayer final : public cv::dnn::Layer {
+bool both_are(const std::vector<std::size_t>& values, std::size_t v) {
+  return values.size() == 2 && values[0] == v && values[1] == v;
+}
+
+// A float layer run by a Kernel over each image of the batch, taking over the activation that
+// follows it (OpenCV fuses it in; the kernel applies it while the output is in cache).
+// Kernel: input_channels(), output_channels(), run(in, ..., out, activation).
+template <class Kernel>
+class ProductLayer : public cv::dnn::Layer {
  public:
-  explicit PointwiseLayer(const cv::dnn::LayerParams& params)
+  ProductLayer(const cv::dnn::LayerParams& params, const char* layer_type)
       : kernel_(params.blobs[0], params.blobs.size() > 1 ? params.blobs[1] : cv::Mat()) {
     setParamsFrom(params);
-    type = "KeyfleetPointwise";
-  }
-
-  static bool handles(const cv::dnn::LayerParams& params,
-                      const cv::dnn::BaseConvolutionLayer& geometry) {
-    if (!product_supported() || params.blobs.empty() || params.blobs[0].dims != 4 ||
-        params.blobs[0].type() != CV_32F)
-      return false;
-    const cv::Mat& w = params.blobs[0];
-    auto all = [](const std::vector<std::size_t>& values, std::size_t v) {
-      return values.size() == 2 && values[0] == v && values[1] == v;
-    };
-    return all(geometry.kernel_size, 1) && all(geometry.strides, 1) && all(geometry.dilations, 1) &&
-           all(geometry.pads_begin, 0) && all(geometry.pads_end, 0) && geometry.padMode.empty() &&
-           params.get<int>("group", 1) == 1 && geometry.numOutput == w.size[0] &&
-           (params.blobs.size() < 2 || int(params.blobs[1].total()) == w.size[0]);
-  }
-
-  bool getMemoryShapes(const std::vector<cv::dnn::MatShape>& inputs, int,
-                       std::vector<cv::dnn::MatShape>& outputs,
-                       std::vector<cv::dnn::MatShape>&) const override {
-    const cv::dnn::MatShape& in = inputs.at(0);
-    CV_Assert(in.size() == 4 && in[1] == kernel_.input_channels());
-    outputs = {{in[0], kernel_.output_channels(), in[2], in[3]}};
-    return false;
+    type = layer_type;
   }
 
   bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
@@ -223,12 +205,48 @@ class PointwiseLayer final : public cv::dnn::Layer {
     cv::Mat& out = outputs.at(0);  // may be a slice of a concatenation: images apart
     CV_Assert(in.type() == CV_32F && in.isContinuous() && out.type() == CV_32F);
     for (int n = 0; n < in.size[0]; ++n)
-      kernel_.run(in.ptr<float>(n), in.size[2] * in.size[3], out.ptr<float>(n), activation_.get());
+      run(in.ptr<float>(n), in.size[2], in.size[3], out.ptr<float>(n));
   }
 
- private:
-  PointwiseConvolution kernel_;
+ protected:
+  virtual void run(const float* in, int height, int width, float* out) = 0;
+
+  Kernel kernel_;
   cv::Ptr<cv::dnn::ActivationLayer> activation_;
+};
+
+// 1x1 convolution, stride 1, no padding, one group, by avx2_product.hpp; an activation after it
+// is applied as each stripe of columns is done.
+class PointwiseLayer final : public ProductLayer<PointwiseConvolution> {
+ public:
+  explicit PointwiseLayer(const cv::dnn::LayerParams& params)
+      : ProductLayer(params, "KeyfleetPointwise") {}
+
+  static bool handles(const cv::dnn::LayerParams& params,
+                      const cv::dnn::BaseConvolutionLayer& geometry) {
+    if (!product_supported() || params.blobs.empty() || params.blobs[0].dims != 4 ||
+        params.blobs[0].type() != CV_32F)
+      return false;
+    const cv::Mat& w = params.blobs[0];
+    return both_are(geometry.kernel_size, 1) && both_are(geometry.strides, 1) &&
+           both_are(geometry.dilations, 1) && both_are(geometry.pads_begin, 0) &&
+           both_are(geometry.pads_end, 0) && geometry.padMode.empty() &&
+           params.get<int>("group", 1) == 1 && geometry.numOutput == w.size[0] &&
+           (params.blobs.size() < 2 || int(params.blobs[1].total()) == w.size[0]);
+  }
+
+  bool getMemoryShapes(const std::vector<cv::dnn::MatShape>& inputs, int,
+                       std::vector<cv::dnn::MatShape>& outputs,
+                       std::vector<cv::dnn::MatShape>&) const override {
+    const cv::dnn::MatShape& in = inputs.at(0);
+    CV_Assert(in.size() == 4 && in[1] == kernel_.input_channels());
+    outputs = {{in[0], kernel_.output_channels(), in[2], in[3]}};
+    return false;
+  }
+
+  void run(const float* in, int height, int width, float* out) override {
+    kernel_.run(in, height * width, out, activation_.get());
+  }
 };
 
 template <bool kDepthwise, bool kPointwise>
@@ -243,13 +261,10 @@ cv::Ptr<cv::dnn::Layer> create_convolution(cv::dnn::LayerParams& params) {
 
 // Transposed 3x3 convolution, stride 2, padding 1, output padding 1 (MiniNet's upsampling),
 // by its four sub-pixel convolutions; an activation after it is applied as each plane is done.
-class SubpixelDeconvolutionLayer final : public cv::dnn::Layer {
+class SubpixelDeconvolutionLayer final : public ProductLayer<SubpixelDeconvolution> {
  public:
   explicit SubpixelDeconvolutionLayer(const cv::dnn::LayerParams& params)
-      : kernel_(params.blobs[0], params.blobs.size() > 1 ? params.blobs[1] : cv::Mat()) {
-    setParamsFrom(params);
-    type = "KeyfleetSubpixelDeconvolution";
-  }
+      : ProductLayer(params, "KeyfleetSubpixelDeconvolution") {}
 
   static bool handles(const cv::dnn::LayerParams& params,
                       const cv::dnn::BaseConvolutionLayer& geometry) {
@@ -257,13 +272,11 @@ class SubpixelDeconvolutionLayer final : public cv::dnn::Layer {
         params.blobs[0].type() != CV_32F)
       return false;
     const cv::Mat& w = params.blobs[0];
-    auto all = [](const std::vector<std::size_t>& values, std::size_t v) {
-      return values.size() == 2 && values[0] == v && values[1] == v;
-    };
-    return all(geometry.kernel_size, 3) && all(geometry.strides, 2) && all(geometry.dilations, 1) &&
-           all(geometry.pads_begin, 1) && all(geometry.pads_end, 1) &&
-           all(geometry.adjust_pads, 1) && geometry.padMode.empty() &&
-           params.get<int>("group", 1) == 1 && geometry.numOutput == w.size[1] &&
+    return both_are(geometry.kernel_size, 3) && both_are(geometry.strides, 2) &&
+           both_are(geometry.dilations, 1) && both_are(geometry.pads_begin, 1) &&
+           both_are(geometry.pads_end, 1) && both_are(geometry.adjust_pads, 1) &&
+           geometry.padMode.empty() && params.get<int>("group", 1) == 1 &&
+           geometry.numOutput == w.size[1] &&
            (params.blobs.size() < 2 || int(params.blobs[1].total()) == w.size[1]);
   }
 
@@ -276,26 +289,9 @@ class SubpixelDeconvolutionLayer final : public cv::dnn::Layer {
     return false;
   }
 
-  bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
-    activation_ = layer;
-    return !activation_.empty();
+  void run(const float* in, int height, int width, float* out) override {
+    kernel_.run(in, height, width, out, activation_.get());
   }
-
-  void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
-               cv::OutputArrayOfArrays) override {
-    std::vector<cv::Mat> inputs, outputs;
-    inputs_arr.getMatVector(inputs);
-    outputs_arr.getMatVector(outputs);
-    const cv::Mat& in = inputs.at(0);
-    cv::Mat& out = outputs.at(0);  // may be a slice of a concatenation: images apart
-    CV_Assert(in.type() == CV_32F && in.isContinuous() && out.type() == CV_32F);
-    for (int n = 0; n < in.size[0]; ++n)
-      kernel_.run(in.ptr<float>(n), in.size[2], in.size[3], out.ptr<float>(n), activation_.get());
-  }
-
- private:
-  SubpixelDeconvolution kernel_;
-  cv::Ptr<cv::dnn::ActivationLayer> activation_;
 };
 
 cv::Ptr<cv::dnn::Layer> create_deconvolution(cv::dnn::LayerParams& params) {
