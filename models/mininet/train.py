@@ -11,6 +11,8 @@ photos), which never trains and is the validation set; with --icdar, ICDAR 2015 
 img_201..500 (img_101..200 are the evaluation's). --packed DIR reads the same sources as pack.py
 wrote them (for a machine without the data). Each batch has a fixed number of each (--mix
 generated,icdar-train,test_blurred; default 2,5,1 of 8: three quarters real photos).
+--init MODEL.onnx starts from an exported model's weights (fine-tuning the shipped one); with
+--generated-floor F, best.pt is kept among checkpoints whose generated IoU reaches F.
 Adam (lr 1e-3), polynomial decay (power 0.9); cross-entropy with median-frequency class weights
 raised to a power, w_c = (f_median / f_c) ** power, over the pixels that count; augmentation:
 see data.augment. Batch 8 crops of 256x128 by default (--crop).
@@ -101,11 +103,14 @@ def one_thread_worker(_):
     cv2.setNumThreads(1)
 
 
-def validate(net, sources, device):
-    """Per size: real and generated scores; the selection score is the mean real IoU."""
-    row, real_ious = {}, []
+def validate(net, sources, device, generated_floor=0.0):
+    """Per size: real and generated scores; the selection score is the mean real IoU, less one
+    whole point (so never above a checkpoint that holds it) where the mean generated IoU is below
+    generated_floor."""
+    row, real_ious, gen_ious = {}, [], []
     for size, name in zip(data.VIEW_SIZES, SIZES):
         gen = evaluate(net, sources.generated_views[size], device)
+        gen_ious.append(gen["iou"])
         row[f"generated_iou_{name}"] = round(gen["iou"], 5)
         if sources.real_val:
             real = evaluate(net, sources.real_views[size], device)
@@ -114,7 +119,30 @@ def validate(net, sources, device):
                 row[f"real_{k}_{name}"] = round(real[k], 5)
         else:
             real_ious.append(gen["iou"])
-    return row, float(np.mean(real_ious))
+    score = float(np.mean(real_ious))
+    return row, score - 1.0 if np.mean(gen_ious) < generated_floor else score
+
+
+def load_onnx_weights(net, path):
+    """The weights of an exported MiniNet (export.py keeps the state-dict names; its 3x3 depthwise
+    kernels padded from 1x3 / 3x1 give back their middle row / column)."""
+    import onnx
+    from onnx import numpy_helper
+    stored = {t.name: numpy_helper.to_array(t) for t in onnx.load(path).graph.initializer}
+    state = net.state_dict()
+    for name, tensor in state.items():
+        if tensor.dim() == 0:  # BatchNorm's num_batches_tracked is not exported
+            continue
+        if name not in stored:
+            raise SystemExit(f"train.py: --init {path} has no weight {name}")
+        w = stored[name].astype(np.float32)
+        if w.shape != tuple(tensor.shape) and w.shape[2:] == (3, 3):
+            w = w[:, :, 1:2, :] if tensor.shape[2] == 1 else w[:, :, :, 1:2]
+        if w.shape != tuple(tensor.shape):
+            raise SystemExit(f"train.py: --init {path}: {name} is {w.shape}, not "
+                             f"{tuple(tensor.shape)}")
+        state[name] = torch.from_numpy(np.ascontiguousarray(w))
+    net.load_state_dict(state)
 
 
 def rng_states(device):
@@ -150,6 +178,11 @@ def main():
     ap.add_argument("--device", default="cpu", help="cpu, or cuda where torch sees a GPU")
     ap.add_argument("--stop-at", type=int, default=0,
                     help="leave after the checkpoint at this step (a rerun goes on); 0: at --steps")
+    ap.add_argument("--init", default="",
+                    help="start from an exported model's weights (models/mininet/mininet_text.onnx)")
+    ap.add_argument("--generated-floor", type=float, default=0.0,
+                    help="best.pt only among checkpoints whose mean generated IoU reaches this, "
+                         "while any does")
     ap.add_argument("--icdar-train", default="", help="ICDAR 2015 training folder (images/, gt/)")
     ap.add_argument("--icdar", default="", help="the shared data folder: test_blurred img_201..500")
     args = ap.parse_args()
@@ -181,11 +214,14 @@ def main():
     net = MiniNet(2)
     print(f"MiniNet: {count_parameters(net) / 1e6:.3f} M parameters, "
           f"{count_flops(net, 256, 512) / 1e9:.3f} GFLOPs at 512x256", flush=True)
+    if args.init:
+        load_onnx_weights(net, args.init)
+        print(f"starting from the weights of {args.init}", flush=True)
     net.to(args.device)
     optimizer = torch.optim.Adam(net.parameters(), lr=args.lr)
     schedule = torch.optim.lr_scheduler.LambdaLR(
         optimizer, lambda step: (1 - min(step, args.steps - 1) / args.steps) ** 0.9)
-    step, best = 0, -1.0
+    step, best = 0, -2.0
     latest, best_path = os.path.join(args.work, "latest.pt"), os.path.join(args.work, "best.pt")
     csv_path = os.path.join(args.work, "validation.csv")
     if os.path.exists(latest):
@@ -231,7 +267,7 @@ def main():
                   f"{(time.time() - interval_start) / len(losses):.3f} s/step", flush=True)
         if step % args.validate_every == 0 or step == args.steps:
             s_per_step = (time.time() - interval_start) / max(1, len(losses))
-            row, score = validate(net, sources, args.device)
+            row, score = validate(net, sources, args.device, args.generated_floor)
             improved = score > best
             best = max(best, score)
             row.update({"step": step, "loss": round(float(np.mean(losses)), 5),
