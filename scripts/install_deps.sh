@@ -43,7 +43,7 @@ PACKAGES=(
   libbenchmark-dev
   procps
   openssl
-  iproute2
+  iproute2 nftables
   python3-torch python3-onnx python3-opencv python3-numpy
   python3-matplotlib
   chromium chromium-driver python3-selenium

@@ -353,6 +353,7 @@ void visit(V& v, AnalysisConfig& c) {
   v.field("workers", c.workers, between(1, 64));
   v.field("queue_capacity", c.queue_capacity, between(1, 100000));
   v.field("drain_timeout_s", c.drain_timeout_s, between(0.0, 3600.0));
+  v.field("max_attempts", c.max_attempts, between(1, 1000));
   v.section("text", c.text);
   v.section("places", c.places);
 }
@@ -377,6 +378,7 @@ void visit(V& v, StationConfig& c) {
   v.field("database", c.database);
   v.field("mission_log", c.mission_log);
   v.field("report_period_s", c.report_period_s, positive());
+  v.field("report_reserve_bytes", c.report_reserve_bytes, between<std::uint64_t>(0, 1ULL << 30));
   v.field("log_level", c.log_level, one_of(kLogLevels));
 }
 

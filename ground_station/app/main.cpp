@@ -2,11 +2,12 @@
 #include <CLI/CLI.hpp>
 
 #include <filesystem>
-#include <fstream>
+#include <functional>
 #include <iostream>
 
 #include "keyfleet/cli/process_options.hpp"
 #include "keyfleet/common/clock.hpp"
+#include "keyfleet/common/file_output.hpp"
 #include "keyfleet/common/process_tuning.hpp"
 #include "keyfleet/common/shutdown_signal.hpp"
 #include "keyfleet/dds/dds_transport.hpp"
@@ -33,6 +34,10 @@ int run(const ProcessOptions& options) {
   logger->info("effective configuration:\n{}", to_yaml(config));
 
   ShutdownSignal shutdown;
+  DiskReserve report_space(fs::path(options.run_dir) / "report.reserve",
+                           config.report_reserve_bytes);
+  if (!report_space.problem().empty())
+    logger->warn("space for the reports: {} (the disk is nearly full)", report_space.problem());
   station::KeyframeStore store((fs::path(options.run_dir) / config.database).string());
   station::MissionLog mission_log((fs::path(options.run_dir) / config.mission_log).string());
   auto link = make_dds_station_link(config.dds, logger);
@@ -49,10 +54,13 @@ int run(const ProcessOptions& options) {
     steps.push_back([analyzer](const station::AnalysisJob& job) { return analyzer->analyse(job); });
   }
   station::AnalysisStore analysis_store(store.path());
+  station::AnalysisAttempts attempts(store.path());
   station::TopoMap map;
-  station::AnalysisPool pool(std::move(steps),
-                             static_cast<std::size_t>(analysis_config.queue_capacity), logger);
+  station::AnalysisPool pool(
+      std::move(steps), static_cast<std::size_t>(analysis_config.queue_capacity), logger,
+      [&attempts](const station::KeyframeKey& key) { attempts.started(key); });
   station::StationAnalysis analysis(store, analysis_store, map, pool, logger);
+  analysis.skip_abandoned(attempts, analysis_config.max_attempts);
   analysis.restore(places.get());
 
   // The dashboard reads the database on its own threads; the pool outlives it.
@@ -63,8 +71,7 @@ int run(const ProcessOptions& options) {
     dashboard = std::make_unique<station::web::DashboardServer>(
         config.dashboard, store.path(), [&pool] { return std::optional(pool.counters()); }, logger);
     // Written whole, then renamed: `keyfleet mission` reads it while the station runs.
-    std::ofstream(url_file.string() + ".tmp") << dashboard->url() << "\n";
-    fs::rename(url_file.string() + ".tmp", url_file);
+    write_file(url_file, dashboard->url() + "\n");
     logger->info("dashboard at {}", dashboard->url());
   }
   station.on_stored([&analysis, &dashboard](const Keyframe& k) {
@@ -104,16 +111,38 @@ int run(const ProcessOptions& options) {
     dashboard->stop();
     fs::remove(url_file);
   }
-  mission_log.event("station stopped", wall_time_ns());
-  std::string table = station::write_bandwidth_report(
-      station::build_bandwidth_report(store.totals()), options.run_dir);
-  table += "\n" + station::write_analysis_exports(analysis_store, map, analysis.summary(),
+  // Each report on its own: one that cannot be written (a full disk) does not stop the others.
+  report_space.release();
+  std::string table;
+  bool reports_written = true;
+  const auto write_report = [&](const char* what, const std::function<std::string()>& write) {
+    try {
+      table += write();
+    } catch (const std::exception& e) {
+      logger->error("{} not written: {}", what, e.what());
+      reports_written = false;
+    }
+  };
+  write_report("the mission log's last event", [&] {
+    mission_log.event("station stopped", wall_time_ns());
+    return std::string();
+  });
+  write_report("the bandwidth report", [&] {
+    return station::write_bandwidth_report(station::build_bandwidth_report(store.totals()),
+                                           options.run_dir);
+  });
+  write_report("the analysis exports", [&] {
+    return "\n" + station::write_analysis_exports(analysis_store, map, analysis.summary(),
                                                   options.run_dir);
-  std::ofstream(fs::path(options.run_dir) / "report.txt") << table;
+  });
+  write_report("report.txt", [&] {
+    write_file(fs::path(options.run_dir) / "report.txt", table);
+    return std::string();
+  });
   std::cout << table << std::flush;
   logger->info("stopped by signal {}; report in {}", shutdown.received(),
                (fs::path(options.run_dir) / "report.json").string());
-  return 0;
+  return reports_written ? 0 : 1;
 }
 
 }  // namespace

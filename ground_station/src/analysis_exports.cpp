@@ -1,21 +1,15 @@
 #include "keyfleet/station/analysis_exports.hpp"
 
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
 
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/common/file_output.hpp"
 
 namespace keyfleet::station {
 namespace {
-
-std::ofstream open_export(const std::filesystem::path& path) {
-  std::ofstream out(path);
-  if (!out) throw std::runtime_error("cannot write " + path.string());
-  return out;
-}
 
 std::string csv_text(const std::string& text) {
   std::string quoted = "\"";
@@ -31,15 +25,16 @@ std::string write_analysis_exports(const AnalysisStore& store, const TopoMap& ma
   namespace fs = std::filesystem;
   const fs::path dir(run_dir);
   {
-    auto out = open_export(dir / "map.graphml");
+    std::ostringstream out;
     map.write_graphml(out);
+    write_file(dir / "map.graphml", out.str());
   }
-  open_export(dir / "map.json") << map.to_json().dump(1) << "\n";
+  write_file(dir / "map.json", map.to_json().dump(1) + "\n");
 
   const std::vector<StoredWord> words = store.words();
   std::set<std::string> distinct;
   {
-    auto out = open_export(dir / "words.csv");
+    std::ostringstream out;
     out << "robot_id,sequence_number,capture_time_ns,text,confidence,x,y,width,height\n";
     for (const StoredWord& w : words) {
       out << w.keyframe.robot_id << ',' << w.keyframe.sequence << ',' << w.capture_time_ns << ','
@@ -49,15 +44,17 @@ std::string write_analysis_exports(const AnalysisStore& store, const TopoMap& ma
       for (char c : w.text) upper += static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
       distinct.insert(upper);
     }
+    write_file(dir / "words.csv", out.str());
   }
   {
-    auto out = open_export(dir / "place_matches.csv");
+    std::ostringstream out;
     out << "robot_id,sequence_number,match_robot_id,match_sequence_number,matches,inliers,"
            "bow_score\n";
     for (const StoredPlaceMatch& m : store.place_matches()) {
       out << m.query.robot_id << ',' << m.query.sequence << ',' << m.match.robot_id << ','
           << m.match.sequence << ',' << m.matches << ',' << m.inliers << ',' << m.bow_score << '\n';
     }
+    write_file(dir / "place_matches.csv", out.str());
   }
   std::ostringstream text;
   text << "Station analysis: " << summary.analysed << " keyframe(s) analysed";

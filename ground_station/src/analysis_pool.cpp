@@ -2,8 +2,11 @@
 
 namespace keyfleet::station {
 
-AnalysisPool::AnalysisPool(std::vector<Step> workers, std::size_t capacity, Logger logger)
-    : capacity_(std::max<std::size_t>(capacity, 1)), logger_(std::move(logger)) {
+AnalysisPool::AnalysisPool(std::vector<Step> workers, std::size_t capacity, Logger logger,
+                           StartHook on_start)
+    : capacity_(std::max<std::size_t>(capacity, 1)),
+      logger_(std::move(logger)),
+      on_start_(std::move(on_start)) {
   threads_.reserve(workers.size());
   for (auto& step : workers) threads_.emplace_back([this, step = std::move(step)] { run(step); });
 }
@@ -37,6 +40,14 @@ void AnalysisPool::run(const Step& step) {
     waiting_.pop_front();
     ++counters_.running;
     lock.unlock();
+    if (on_start_) {
+      try {
+        on_start_(job.key);
+      } catch (const std::exception& e) {
+        logger_->error("could not record the start of {}'s analysis: {}", to_string(job.key),
+                       e.what());
+      }
+    }
     AnalysisResult result;
     try {
       result = step(job);

@@ -1,11 +1,12 @@
 #include "keyfleet/station/bandwidth_report.hpp"
 
+#include "keyfleet/common/file_output.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <sstream>
 
@@ -217,10 +218,10 @@ std::vector<BandwidthSeries> build_bandwidth_timeline(
 
 std::string write_bandwidth_report(const BandwidthReport& report, const std::string& run_dir) {
   const std::filesystem::path dir(run_dir);
-  std::ofstream(dir / "report.json") << to_json(report) << '\n';
-  std::ofstream(dir / "report.csv") << to_csv(report);
+  write_file(dir / "report.json", to_json(report) + "\n");
+  write_file(dir / "report.csv", to_csv(report));
   const std::string table = format_table(report);
-  std::ofstream(dir / "report.txt") << table;
+  write_file(dir / "report.txt", table);
   return table;
 }
 

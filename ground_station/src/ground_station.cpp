@@ -13,7 +13,7 @@ void GroundStation::note_robot(const std::string& robot_id) {
   if (!is_valid_robot_id(robot_id) || robots_.count(robot_id)) return;
   robots_.insert(robot_id);
   logger_->info("robot '{}' joined ({} robot(s) so far)", robot_id, robots_.size());
-  log_.event("robot joined: " + robot_id, wall_time_ns());
+  in_mission_log([&] { log_.event("robot joined: " + robot_id, wall_time_ns()); });
 }
 
 KeyframeAck GroundStation::handle(const ReceivedKeyframe& received, std::int64_t now_ns) {
@@ -30,7 +30,7 @@ KeyframeAck GroundStation::handle(const ReceivedKeyframe& received, std::int64_t
     // report and the protobuf mission log from being written.
     const std::string robot = printable_text(k.robot_id);
     if (store_.record_rejection(robot, k.sequence_number, *problem, now_ns)) {
-      log_.rejected(robot, k.sequence_number, *problem, now_ns);
+      in_mission_log([&] { log_.rejected(robot, k.sequence_number, *problem, now_ns); });
       logger_->error("rejected keyframe {} from '{}': {}", k.sequence_number, robot, *problem);
     }
     return ack;
@@ -62,8 +62,10 @@ KeyframeAck GroundStation::store_checked(const Keyframe& k, std::uint64_t serial
                  " is already stored with another image; this one is kept apart";
     logger_->error("keyframe {} from {}: {} (the robot lost its sequence numbers?)",
                    k.sequence_number, k.robot_id, ack.reason);
-    log_.event("sequence conflict: " + k.robot_id + " " + std::to_string(k.sequence_number),
-               now_ns);
+    in_mission_log([&] {
+      log_.event("sequence conflict: " + k.robot_id + " " + std::to_string(k.sequence_number),
+                 now_ns);
+    });
     return ack;
   }
   if (outcome == StoreOutcome::kDuplicate) {
@@ -72,8 +74,9 @@ KeyframeAck GroundStation::store_checked(const Keyframe& k, std::uint64_t serial
                    k.robot_id);
     return ack;
   }
-  log_.keyframe(k, serialized_bytes, now_ns);
+  // Stored in the database: acknowledged whatever happens to the mission log's line about it.
   if (on_stored_) on_stored_(k);
+  in_mission_log([&] { log_.keyframe(k, serialized_bytes, now_ns); });
   logger_->debug("stored keyframe {} from {} ({} bytes)", k.sequence_number, k.robot_id,
                  serialized_bytes);
   return ack;
@@ -87,22 +90,56 @@ void GroundStation::handle(const AgentStats& stats) {
   }
   note_robot(stats.robot_id);
   store_.record_stats(stats);
-  log_.agent_stats(stats);
+  in_mission_log([&] { log_.agent_stats(stats); });
+}
+
+void GroundStation::in_mission_log(const std::function<void()>& write) {
+  try {
+    write();
+  } catch (const std::exception& e) {
+    if (mission_log_failures_++ % 100 == 0)
+      logger_->error("mission log: {} ({} record(s) not written so far; the database has them)",
+                     e.what(), mission_log_failures_);
+  }
+}
+
+void GroundStation::storage_failed(const std::string& what, const char* error) {
+  // Said once when it starts failing, then every 100th time: a full disk fails every write.
+  if (storage_failures_++ % 100 == 0)
+    logger_->error(
+        "could not store {} ({} failed write(s) in a row): {}; nothing is acknowledged until "
+        "storage works again, the robots keep their copies and resend",
+        what, storage_failures_, error);
+}
+
+void GroundStation::storage_worked() {
+  if (storage_failures_ == 0) return;
+  logger_->info("storage works again after {} failed write(s)", storage_failures_);
+  storage_failures_ = 0;
 }
 
 std::size_t GroundStation::step(std::chrono::milliseconds wait) {
   StationInbox inbox = link_.take(wait, 64);
-  for (const auto& stats : inbox.stats) handle(stats);
+  for (const auto& stats : inbox.stats) {
+    try {
+      handle(stats);
+    } catch (const std::exception& e) {
+      // Statistics are cumulative: the robot's next report carries what this one said.
+      storage_failed("the statistics of '" + printable_text(stats.robot_id) + "'", e.what());
+    }
+  }
   for (const auto& received : inbox.keyframes) {
     KeyframeAck ack;
     try {
       ack = handle(received, wall_time_ns());
     } catch (const std::exception& e) {
-      // Storage failure (disk full, I/O error): not acknowledged, so the agent resends.
-      logger_->error("could not store keyframe {} from {}: {}", received.keyframe.sequence_number,
-                     received.keyframe.robot_id, e.what());
+      // Not acknowledged, so the agent resends.
+      storage_failed("keyframe " + std::to_string(received.keyframe.sequence_number) + " from '" +
+                         printable_text(received.keyframe.robot_id) + "'",
+                     e.what());
       continue;
     }
+    storage_worked();
     const PublishResult sent = link_.acknowledge(ack);
     if (!sent.ok) logger_->warn("acknowledgement not sent ({}); the agent will resend", sent.error);
   }

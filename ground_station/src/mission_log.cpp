@@ -1,9 +1,15 @@
 #include "keyfleet/station/mission_log.hpp"
 
 #include <google/protobuf/io/zero_copy_stream_impl.h>
+#include <google/protobuf/io/zero_copy_stream_impl_lite.h>
 #include <google/protobuf/util/delimited_message_util.h>
 
 #include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <stdexcept>
 
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/fnv1a.hpp"
@@ -11,15 +17,42 @@
 
 namespace keyfleet::station {
 
-MissionLog::MissionLog(const std::string& path)
-    : path_(path), out_(path, std::ios::binary | std::ios::app) {
-  if (!out_) throw StartupError("cannot open mission log " + path + " for appending");
+MissionLog::MissionLog(const std::string& path) : path_(path) {
+  fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+  if (fd_ < 0)
+    throw StartupError("cannot open mission log " + path +
+                       " for appending: " + std::strerror(errno));
+  size_ = ::lseek(fd_, 0, SEEK_END);
+}
+
+MissionLog::~MissionLog() {
+  if (fd_ >= 0) ::close(fd_);
 }
 
 template <class Record>
 void MissionLog::append(const Record& record) {
-  google::protobuf::util::SerializeDelimitedToOstream(record, &out_);
-  out_.flush();
+  std::string bytes;
+  {
+    google::protobuf::io::StringOutputStream stream(&bytes);
+    google::protobuf::util::SerializeDelimitedToZeroCopyStream(record, &stream);
+  }
+  std::size_t written = 0;
+  while (written < bytes.size()) {
+    const ssize_t n = ::write(fd_, bytes.data() + written, bytes.size() - written);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) {
+      const int error = errno;
+      if (written > 0 && ::ftruncate(fd_, size_) != 0) {
+        throw std::runtime_error("mission log " + path_ + ": a record was cut short (" +
+                                 std::strerror(error) +
+                                 ") and could not be removed: " + std::strerror(errno));
+      }
+      throw std::runtime_error("cannot append to mission log " + path_ + ": " +
+                               std::strerror(error));
+    }
+    written += static_cast<std::size_t>(n);
+  }
+  size_ += static_cast<std::int64_t>(bytes.size());
 }
 
 void MissionLog::keyframe(const Keyframe& k, std::uint64_t serialized_bytes,

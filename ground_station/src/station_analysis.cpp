@@ -55,6 +55,22 @@ void StationAnalysis::restore(PlaceRecognizer* places) {
   }
 }
 
+std::size_t StationAnalysis::skip_abandoned(const AnalysisAttempts& attempts, int max_attempts) {
+  const std::vector<AnalysisAttempts::Abandoned> abandoned = attempts.abandoned(max_attempts);
+  for (const AnalysisAttempts::Abandoned& a : abandoned) {
+    AnalysisResult skipped;
+    skipped.key = a.key;
+    skipped.capture_time_ns = a.capture_time_ns;
+    skipped.status = AnalysisStatus::kFailed;
+    skipped.detail = "its analysis was started " + std::to_string(a.attempts) +
+                     " times and the station stopped during each (a crash in an engine?); "
+                     "skipped, the keyframe itself is kept";
+    logger_->error("analysis of {} skipped: {}", to_string(a.key), skipped.detail);
+    store_.save(skipped);
+  }
+  return abandoned.size();
+}
+
 void StationAnalysis::on_stored(const Keyframe& k) {
   map_.add_keyframe(node_of(k.robot_id, k.sequence_number, k.capture_time_ns, k.camera_pose));
   AnalysisJob job = job_for(k);

@@ -214,13 +214,37 @@ TEST_F(GroundStationTest, FailedAcknowledgementDoesNotStopTheStation) {
 TEST_F(GroundStationTest, StorageFailureIsNotAcknowledgedSoTheAgentResends) {
   {
     SqliteDb saboteur(store_.path());
-    saboteur.exec("DROP TABLE keyframes");
+    saboteur.exec("DROP TABLE keyframes; DROP TABLE agent_stats");
   }
   std::size_t handled = 0;
   EXPECT_NO_THROW(handled =
                       step_with({received(keyfleet::test::make_valid_keyframe("drone_0", 0))}));
   EXPECT_EQ(handled, 1u);
   EXPECT_TRUE(link_.acks.empty());
+  EXPECT_EQ(station_.storage_failures(), 1u);
+  AgentStats stats;
+  stats.robot_id = "drone_0";
+  EXPECT_NO_THROW(step_with({}, {stats})) << "unstorable statistics stopped the station";
+  EXPECT_EQ(station_.storage_failures(), 2u);
+}
+
+// The mission log on a device that is always full: every write fails. What the database holds is
+// still acknowledged as stored; the log's failures are counted, not thrown.
+TEST(GroundStationMissionLog, AFullMissionLogDoesNotHoldBackAcknowledgements) {
+  keyfleet::test::TempDir dir;
+  KeyframeStore store(dir.file("station.sqlite"));
+  MissionLog full_log("/dev/full");
+  EXPECT_THROW(full_log.event("probe", 1), std::runtime_error);
+  FakeStationLink link;
+  GroundStation station(StationLimits{}, store, full_log, link, null_logger());
+  StationInbox inbox;
+  inbox.keyframes = {received(keyfleet::test::make_valid_keyframe("drone_0", 0))};
+  link.queue(std::move(inbox));
+  EXPECT_EQ(station.step(std::chrono::milliseconds(0)), 1u);
+  ASSERT_EQ(link.acks.size(), 1u);
+  EXPECT_EQ(link.acks[0].status, AckStatus::kStored);
+  EXPECT_EQ(store.keyframe_count(), 1u);
+  EXPECT_EQ(station.storage_failures(), 0u);
 }
 
 TEST_F(GroundStationTest, HandleReturnsTheAckWithoutSendingIt) {

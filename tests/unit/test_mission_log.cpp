@@ -114,6 +114,17 @@ TEST_F(MissionLogTest, EveryCutInsideTheLastRecordIsReportedAsCorrupt) {
   }
 }
 
+TEST(MissionLogFull, AFailedWriteSaysWhyAndLeavesTheLogReadable) {
+  MissionLog full("/dev/full");
+  try {
+    full.event("station started", 1);
+    FAIL() << "a write to a full device succeeded";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("No space left on device"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("/dev/full"), std::string::npos) << e.what();
+  }
+}
+
 TEST_F(MissionLogTest, MissingFileThrowsOnRead) {
   std::vector<std::string> kinds;
   EXPECT_THROW(read_mission_log_kinds(dir_.file("absent.pb"), kinds), std::runtime_error);

@@ -4,6 +4,8 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <csignal>
+#include <cstdlib>
 #include <map>
 #include <mutex>
 #include <set>
@@ -11,6 +13,7 @@
 #include "keyfleet/common/image_codec.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/sqlite.hpp"
+#include "keyfleet/station/analysis_attempts.hpp"
 #include "keyfleet/station/analysis_pool.hpp"
 #include "keyfleet/station/analysis_store.hpp"
 #include "keyfleet/station/keyframe_analyzer.hpp"
@@ -353,6 +356,55 @@ TEST_F(AnalysisStoreTest, AnAnalysisThatCannotBeSavedIsNotRetriedInALoop) {
   EXPECT_EQ(analysed.load(), 2);
   // Not lost: still unanalysed in the database, for the next start.
   EXPECT_EQ(store_.unanalysed(10), (std::vector<KeyframeKey>{{"bad", 0}}));
+}
+
+// One start of a station whose engine crashes the process on robot "poison"'s keyframes: the
+// worker records each start before running the engine, as the station does.
+[[noreturn]] void run_station_with_a_crashing_engine(const std::string& database) {
+  KeyframeStore keyframes(database);
+  AnalysisStore store(database);
+  AnalysisAttempts attempts(database);
+  TopoMap map;
+  AnalysisPool pool({[](const AnalysisJob& j) {
+                      if (j.key.robot_id == "poison") std::abort();
+                      return done_result(j);
+                    }},
+                    4, null_logger(), [&attempts](const KeyframeKey& k) { attempts.started(k); });
+  StationAnalysis analysis(keyframes, store, map, pool, null_logger());
+  analysis.skip_abandoned(attempts, 3);
+  analysis.restore(nullptr);
+  std::exit(analysis.drain(20s) ? 0 : 2);
+}
+
+TEST(AnalysisCrashGuard, AKeyframeWhoseAnalysisKillsTheStationIsSkippedAfterThreeStarts) {
+  test::TempDir dir;
+  const std::string database = dir.file("station.sqlite");
+  {
+    KeyframeStore keyframes(database);
+    AnalysisStore create_tables(database);
+    for (const std::string robot : {"poison", "good"}) {  // the poison is analysed first
+      Keyframe k = test::make_valid_keyframe(robot, 0, 128, 96);
+      keyframes.store(k, k.image.size(), robot == "poison" ? 1 : 2);
+    }
+  }
+  for (int start = 1; start <= 3; ++start) {
+    EXPECT_EXIT(run_station_with_a_crashing_engine(database), ::testing::KilledBySignal(SIGABRT),
+                "")
+        << "start " << start << " should have died in the engine";
+  }
+  EXPECT_EXIT(run_station_with_a_crashing_engine(database), ::testing::ExitedWithCode(0), "")
+      << "the fourth start should skip the keyframe and finish";
+
+  AnalysisStore store(database, SqliteDb::Mode::kReadOnly);
+  EXPECT_EQ(store.count_with_status(AnalysisStatus::kDone), 1u);
+  EXPECT_EQ(store.count_with_status(AnalysisStatus::kFailed), 1u);
+  EXPECT_TRUE(store.unanalysed(10).empty());
+  auto detail = SqliteDb(database, SqliteDb::Mode::kReadOnly)
+                    .prepare("SELECT detail FROM keyframe_analysis WHERE robot_id = 'poison'");
+  ASSERT_TRUE(detail.step());
+  EXPECT_NE(detail.text(0).find("started 3 times"), std::string::npos) << detail.text(0);
+  EXPECT_TRUE(KeyframeStore(database, SqliteDb::Mode::kReadOnly).load("poison", 0).has_value())
+      << "the keyframe itself is kept";
 }
 
 }  // namespace

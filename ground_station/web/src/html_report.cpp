@@ -4,11 +4,11 @@
 #include <opencv2/imgproc.hpp>
 
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
 
+#include "keyfleet/common/file_output.hpp"
 #include "keyfleet/common/scenario_truth.hpp"
 #include "keyfleet/station/web/figures.hpp"
 #include "keyfleet/station/web/run_view.hpp"
@@ -121,9 +121,7 @@ void write_html_report(const HtmlReportInputs& in, const std::string& path) {
     html << keyframe_figure(card, jpeg ? thumbnail_uri(*jpeg) : "", words);
   }
   html << (robot.empty() ? "<p>No keyframes were stored.</p>" : "</div>") << "</body></html>\n";
-  std::ofstream out(path);
-  out << html.str();
-  if (!out) throw std::runtime_error("cannot write " + path);
+  write_file(path, html.str());
 }
 
 }  // namespace keyfleet::station::web

@@ -114,7 +114,8 @@ void write(const fs::path& path, const std::string& text) {
 }
 }  // namespace
 
-std::unique_ptr<mission::ChildProcess> FleetFixture::start_station(const StationConfig& config) {
+std::unique_ptr<mission::ChildProcess> FleetFixture::start_station(const StationConfig& config,
+                                                                   const fs::path& log_path) {
   fs::create_directories(station_dir());
   const fs::path yaml = run_dir_ / "station.yaml";
   write(yaml, to_yaml(config));
@@ -122,7 +123,7 @@ std::unique_ptr<mission::ChildProcess> FleetFixture::start_station(const Station
       "ground_station",
       std::vector<std::string>{KEYFLEET_STATION_BIN, "--config", yaml.string(), "--run-dir",
                                station_dir().string()},
-      (station_dir() / "station.log").string());
+      (log_path.empty() ? station_dir() / "station.log" : log_path).string());
 }
 
 std::unique_ptr<mission::ChildProcess> FleetFixture::start_agent(const AgentConfig& config) {

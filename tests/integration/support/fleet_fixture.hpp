@@ -45,7 +45,9 @@ class FleetFixture : public ::testing::Test {
   AgentConfig agent_config(const std::string& robot_id) const;
   StationConfig station_config() const;
 
-  std::unique_ptr<mission::ChildProcess> start_station(const StationConfig& config);
+  // The station's output goes to <station_dir>/station.log unless `log_path` is given.
+  std::unique_ptr<mission::ChildProcess> start_station(const StationConfig& config,
+                                                       const std::filesystem::path& log_path = {});
   std::unique_ptr<mission::ChildProcess> start_agent(const AgentConfig& config);
 
   std::filesystem::path station_dir() const { return run_dir_ / "station"; }

@@ -195,25 +195,50 @@ void NetnsLinks::shape(const std::string& ns, const std::string& device) {
                   std::to_string(burst), "latency", kTbfLatency});
     netem_parent = {"parent", "1:1"};
   }
-  if (!wants_netem || netem_available_ == false) return;
-  std::vector<std::string> argv = {"ip", "netns", "exec", ns, "tc", "qdisc", "add", "dev", device};
-  argv.insert(argv.end(), netem_parent.begin(), netem_parent.end());
-  argv.insert(argv.end(), {"handle", "10:", "netem"});
-  if (profile_.delay_ms > 0)
-    argv.insert(argv.end(), {"delay", format_number(profile_.delay_ms) + "ms"});
-  if (profile_.loss_percent > 0)
-    argv.insert(argv.end(), {"loss", format_number(profile_.loss_percent) + "%"});
-  const auto result = run_command(argv);
-  const bool first = !netem_available_.has_value();
-  netem_available_ = result.exit_code == 0;
-  if (!first) return;
-  const std::string what = "delay " + format_number(profile_.delay_ms) + " ms, loss " +
-                           format_number(profile_.loss_percent) + " %";
-  if (*netem_available_) {
-    notes_.push_back("netem " + what + " applied on both ends of every drone's veth");
-  } else {
-    notes_.push_back("netem NOT available on this kernel (tc: " + result.output + "): " + what +
-                     " NOT applied");
+  if (wants_netem && netem_available_ != false) {
+    std::vector<std::string> argv = {"ip",    "netns", "exec", ns,    "tc",
+                                     "qdisc", "add",   "dev",  device};
+    argv.insert(argv.end(), netem_parent.begin(), netem_parent.end());
+    argv.insert(argv.end(), {"handle", "10:", "netem"});
+    if (profile_.delay_ms > 0)
+      argv.insert(argv.end(), {"delay", format_number(profile_.delay_ms) + "ms"});
+    if (profile_.loss_percent > 0)
+      argv.insert(argv.end(), {"loss", format_number(profile_.loss_percent) + "%"});
+    const auto result = run_command(argv);
+    const bool first = !netem_available_.has_value();
+    netem_available_ = result.exit_code == 0;
+    if (first) {
+      const std::string what = "delay " + format_number(profile_.delay_ms) + " ms, loss " +
+                               format_number(profile_.loss_percent) + " %";
+      if (*netem_available_) {
+        notes_.push_back("netem " + what + " applied on both ends of every drone's veth");
+      } else {
+        notes_.push_back("netem NOT available on this kernel (tc: " + result.output + "): " + what +
+                         " NOT applied by netem");
+      }
+    }
+  }
+  if (profile_.loss_percent > 0 && netem_available_ == false) drop_randomly(ns, device);
+}
+
+void NetnsLinks::drop_randomly(const std::string& ns, const std::string& device) {
+  // Without netem, loss is an nftables rule on the device's way out: each packet leaving it is
+  // dropped with the profile's probability, on both ends, so both directions lose as much.
+  const long percent = std::lround(profile_.loss_percent);
+  const std::vector<std::string> nft = {"ip", "netns", "exec", ns, "nft"};
+  const auto with = [&](std::vector<std::string> args) {
+    args.insert(args.begin(), nft.begin(), nft.end());
+    return args;
+  };
+  run_or_throw(with({"add", "table", "inet", "keyfleet_loss"}));
+  run_or_throw(with({"add", "chain", "inet", "keyfleet_loss", "out", "{", "type", "filter", "hook",
+                     "output", "priority", "0", ";", "policy", "accept", ";", "}"}));
+  run_or_throw(with({"add", "rule", "inet", "keyfleet_loss", "out", "oifname", device, "numgen",
+                     "random", "mod", "100", "<", std::to_string(percent), "drop"}));
+  if (!loss_noted_) {
+    notes_.push_back("loss " + std::to_string(percent) +
+                     " % by an nftables rule (numgen random) on both ends of every drone's veth");
+    loss_noted_ = true;
   }
 }
 

@@ -287,6 +287,9 @@ struct AnalysisConfig {
   // At shutdown the station finishes queued analysis for at most this long; what is left
   // stays unanalysed in the database and is analysed when the station next starts.
   double drain_timeout_s = 40.0;
+  // A keyframe whose analysis was started this many times and never finished (the station
+  // died in it each time, a crash in an engine) is marked failed and not analysed again.
+  int max_attempts = 3;
   TextReadingConfig text;
   PlaceRecognitionConfig places;
 };
@@ -316,6 +319,9 @@ struct StationConfig {
   std::string database = "station.sqlite";  // relative to the run directory
   std::string mission_log = "mission_log.pb";
   double report_period_s = 5.0;  // live bandwidth line in the log
+  // Disk space the station holds in <run>/report.reserve from its start and frees just before
+  // writing its reports, so that they are written even after the disk filled up.
+  std::uint64_t report_reserve_bytes = 4u << 20;
   std::string log_level = "info";
 };
 

@@ -19,6 +19,9 @@ namespace keyfleet::station {
 class AnalysisPool {
  public:
   using Step = std::function<AnalysisResult(const AnalysisJob&)>;
+  // Runs on the worker just before the step (AnalysisAttempts::started); if it throws, the
+  // error is logged and the step runs all the same.
+  using StartHook = std::function<void(const KeyframeKey&)>;
 
   struct Counters {
     std::size_t waiting = 0;
@@ -28,7 +31,8 @@ class AnalysisPool {
   };
 
   // One step per worker thread (each may own engines that are not thread-safe).
-  AnalysisPool(std::vector<Step> workers, std::size_t capacity, Logger logger);
+  AnalysisPool(std::vector<Step> workers, std::size_t capacity, Logger logger,
+               StartHook on_start = {});
   ~AnalysisPool();
   AnalysisPool(const AnalysisPool&) = delete;
   AnalysisPool& operator=(const AnalysisPool&) = delete;
@@ -48,6 +52,7 @@ class AnalysisPool {
 
   std::size_t capacity_;
   Logger logger_;
+  StartHook on_start_;
   mutable std::mutex mutex_;
   std::condition_variable work_ready_;
   std::condition_variable became_idle_;

@@ -27,6 +27,9 @@ class GroundStation {
   std::size_t step(std::chrono::milliseconds wait);
 
   const std::set<std::string>& robots() const { return robots_; }
+  // Writes that failed since storage last worked (a full disk, an I/O error); while it is
+  // above 0 nothing is acknowledged and the robots keep their copies.
+  std::size_t storage_failures() const { return storage_failures_; }
   // Called once per keyframe newly stored (not for duplicates or rejections), after commit.
   void on_stored(std::function<void(const Keyframe&)> callback) {
     on_stored_ = std::move(callback);
@@ -36,6 +39,11 @@ class GroundStation {
   void note_robot(const std::string& robot_id);
   KeyframeAck store_checked(const Keyframe& keyframe, std::uint64_t serialized_bytes,
                             std::int64_t now_ns);
+  void storage_failed(const std::string& what, const char* error);
+  // Runs a mission-log write; a failure is said (once, then every 100th) and not thrown: the
+  // database, not the log, is what acknowledgements promise.
+  void in_mission_log(const std::function<void()>& write);
+  void storage_worked();
 
   StationLimits limits_;
   KeyframeStore& store_;
@@ -46,6 +54,8 @@ class GroundStation {
   std::set<std::string> robots_;
   std::set<std::string> warned_text_regions_;  // robots whose bad text regions were logged
   std::function<void(const Keyframe&)> on_stored_;
+  std::size_t storage_failures_ = 0;
+  std::size_t mission_log_failures_ = 0;
 };
 
 }  // namespace keyfleet::station

@@ -3,6 +3,7 @@
 #include <set>
 
 #include "keyfleet/common/logging.hpp"
+#include "keyfleet/station/analysis_attempts.hpp"
 #include "keyfleet/station/analysis_pool.hpp"
 #include "keyfleet/station/analysis_store.hpp"
 #include "keyfleet/station/keyframe_store.hpp"
@@ -29,6 +30,10 @@ class StationAnalysis {
 
   // Rebuilds the map and the place index from the database (a restarted station).
   void restore(PlaceRecognizer* places);
+  // Marks failed, with the reason, each keyframe whose analysis was started max_attempts times
+  // without a result (it ended the station each time), so that it is not analysed again.
+  // Returns how many.
+  std::size_t skip_abandoned(const AnalysisAttempts& attempts, int max_attempts);
   void on_stored(const Keyframe& keyframe);
   // Saves finished results, backfills when idle. Returns the number of results saved.
   std::size_t step();

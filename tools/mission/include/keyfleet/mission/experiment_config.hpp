@@ -12,7 +12,7 @@ struct LinkProfileConfig {
   std::string name = "unlimited";  // [A-Za-z0-9_.-]
   double rate_kbit_s = 0;          // 0 = unlimited
   double delay_ms = 0;             // netns links only, and only where the kernel has netem
-  double loss_percent = 0;         // netns links only, and only where the kernel has netem
+  double loss_percent = 0;         // netns links only: netem, else an nftables random-drop rule
 };
 
 // `keyfleet experiment bandwidth`: one mission per drone count x link kind x profile.

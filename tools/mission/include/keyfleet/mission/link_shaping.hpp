@@ -1,7 +1,8 @@
 #pragma once
 // Emulated radio links on one machine: the station in a network namespace of its own, each
 // drone in another, joined by a veth pair shaped with tbf (rate) and netem (delay, loss)
-// where the kernel has it. Needs root and iproute2.
+// where the kernel has it; without netem, loss is an nftables rule. Needs root, iproute2 and
+// (for loss without netem) nftables.
 #include <optional>
 #include <string>
 #include <vector>
@@ -49,6 +50,7 @@ class NetnsLinks {
  private:
   void run_or_throw(const std::vector<std::string>& argv);
   void shape(const std::string& ns, const std::string& device);
+  void drop_randomly(const std::string& ns, const std::string& device);
   void wait_until_up();
   void remove_all() noexcept;
 
@@ -62,6 +64,7 @@ class NetnsLinks {
   std::vector<std::string> created_ns_;
   std::vector<std::string> notes_;
   std::optional<bool> netem_available_;
+  bool loss_noted_ = false;
 };
 
 }  // namespace keyfleet::mission
