@@ -4,6 +4,8 @@
 #   scripts/results.sh eval            # `keyfleet eval configs/eval.yaml` only
 #   scripts/results.sh bandwidth       # `keyfleet experiment bandwidth configs/experiment_bandwidth.yaml` only
 #   scripts/results.sh ocr             # `keyfleet ocr eval` on the real sets (about 40 minutes)
+#   scripts/results.sh seeds           # Fig. 6 over 3 forward- and 3 side-looking streets
+#                                      # (`keyfleet eval --seeds`, about 30 minutes here)
 # The blocks between <!-- results:NAME:begin --> and <!-- results:NAME:end --> are replaced;
 # their plots go to docs/results/. KEYFLEET_BUILD_DIR overrides build/; KEYFLEET_EVAL_SCENARIO_DIR
 # evaluates a scenario generated before instead of generating the default one.
@@ -114,6 +116,47 @@ ocr_block() {
   echo "README results:ocr block updated from $out"
 }
 
+# One street kind over several seeds: the README table keeps vslam and full (every strategy is in
+# the run's seeds.md), the plot goes to docs/results/seeds_<kind>.png.
+seeds_kind() {
+  local kind=$1 config=$2
+  shift 2
+  local out="$root/runs/results-seeds-$kind"  # a rerun reuses the seeds already evaluated
+  "$build/bin/keyfleet" eval "$config" --out "$out" --seeds "$@" >&2
+  mkdir -p "$root/docs/results"
+  cp "$out/seeds_fig6.png" "$root/docs/results/seeds_$kind.png"
+  "$python" - "$out/seeds.md" "$kind" <<'PY'
+import sys
+report, kind = sys.argv[1:]
+lines = open(report).read().splitlines()
+rows = [l for l in lines if l.startswith("|")]
+keep = rows[:2] + [r for r in rows[2:] if r.split("|")[1].strip() in ("vslam", "full")]
+print("\n".join(keep))
+print(f"\n![Fig. 6 over seeds, {kind}](docs/results/seeds_{kind}.png)\n")
+PY
+}
+
+seeds_block() {
+  local start=$SECONDS
+  local forward side
+  forward=$(seeds_kind forward "$root/configs/eval.yaml" 11 12 13)
+  side=$(seeds_kind side "$root/configs/eval_side.yaml" 21 22 23)
+  local took=$((SECONDS - start))
+  {
+    echo "*Measured $when on $machine, \`scripts/results.sh seeds\` ($took s): mean [95 % Student t"
+    echo "interval] over 3 generated streets of each kind; the last two columns are paired"
+    echo "differences to \`vslam\` on the same street (the street's own difficulty cancels).*"
+    echo
+    echo "**Forward-looking street** (\`configs/eval.yaml\`, the demo's kind; seeds 11, 12, 13):"
+    echo
+    echo "$forward"
+    echo "**Side-looking street** (\`configs/eval_side.yaml\`; seeds 21, 22, 23):"
+    echo
+    echo "$side"
+  } | replace_block seeds
+  echo "README results:seeds block updated"
+}
+
 blocks=("$@")
 [ ${#blocks[@]} -eq 0 ] && blocks=(eval bandwidth)
 for block in "${blocks[@]}"; do
@@ -121,6 +164,7 @@ for block in "${blocks[@]}"; do
     eval) eval_block ;;
     bandwidth) bandwidth_block ;;
     ocr) ocr_block ;;
-    *) echo "results.sh: unknown block '$block' (eval, bandwidth, ocr)" >&2; exit 2 ;;
+    seeds) seeds_block ;;
+    *) echo "results.sh: unknown block '$block' (eval, bandwidth, ocr, seeds)" >&2; exit 2 ;;
   esac
 done

@@ -83,9 +83,13 @@ void run_seeds(const EvalConfig& base, const EvalOptions& o, const std::string& 
   }
   const auto points = eval::aggregate_seeds(runs);
   eval::write_seed_results(points, o.seeds, out);
+  std::string problem;
+  if (!eval::plot_results(out, o.python, problem, "plot_seeds.py"))
+    logger->warn("no plot: {}", problem);
   print_seed_summary(points, o.seeds.size());
-  std::printf("\n%s/seeds.md, seeds.json, seeds.csv; each seed's results in seed-<n>/\n",
-              out.c_str());
+  std::printf(
+      "\n%s/seeds.md, seeds.json, seeds.csv, seeds_fig6.png; each seed's results in seed-<n>/\n",
+      out.c_str());
 }
 
 void run_eval_command(const EvalOptions& o) {

@@ -259,13 +259,14 @@ void write_results(const EvalResults& r, const std::string& out_dir) {
   write_text_file((dir / "report.md").string(), report(r));
 }
 
-bool plot_results(const std::string& out_dir, const std::string& python, std::string& problem) {
+bool plot_results(const std::string& out_dir, const std::string& python, std::string& problem,
+                  const std::string& script_name) {
   std::vector<fs::path> candidates;
   std::error_code error;
   const fs::path self = fs::read_symlink("/proc/self/exe", error);
-  if (!error) candidates.push_back(self.parent_path() / "../share/keyfleet/report/plot_eval.py");
+  if (!error) candidates.push_back(self.parent_path() / "../share/keyfleet/report" / script_name);
 #ifdef KEYFLEET_EVAL_REPORT_SOURCE_DIR
-  candidates.push_back(fs::path(KEYFLEET_EVAL_REPORT_SOURCE_DIR) / "plot_eval.py");
+  candidates.push_back(fs::path(KEYFLEET_EVAL_REPORT_SOURCE_DIR) / script_name);
 #endif
   for (const auto& script : candidates) {
     if (!fs::is_regular_file(script)) continue;
@@ -275,7 +276,7 @@ bool plot_results(const std::string& out_dir, const std::string& python, std::st
     problem = command + " failed (is python3-matplotlib installed?)";
     return false;
   }
-  problem = "plot_eval.py not found beside the binaries nor in the source tree";
+  problem = script_name + " not found beside the binaries nor in the source tree";
   return false;
 }
 

@@ -114,6 +114,9 @@ std::vector<PointSummary> read_summary(const std::string& results_json);
 // tools/report/plot_eval.py (installed beside the binaries, else the source copy) and
 // `python` (Debian's matplotlib). A missing script or library is not fatal: returns false
 // and says why in `problem`.
-bool plot_results(const std::string& out_dir, const std::string& python, std::string& problem);
+// script_name: plot_eval.py (one run: fig6a_words.png, fig6b_places.png) or plot_seeds.py
+// (--seeds: seeds_fig6.png).
+bool plot_results(const std::string& out_dir, const std::string& python, std::string& problem,
+                  const std::string& script_name = "plot_eval.py");
 
 }  // namespace keyfleet::eval
