@@ -26,10 +26,10 @@ AgentRunner::AgentRunner(const AgentConfig& config, FrameSource& source, Keyfram
       clock_(clock),
       logger_(std::move(logger)) {}
 
-void AgentRunner::tick(std::int64_t now_ns, milliseconds ack_wait) {
-  agent_.service(now_ns, ack_wait);
+void AgentRunner::tick(milliseconds ack_wait) {
+  agent_.service(boot_time_ns(), ack_wait);
   if (Clock::now() >= next_stats_) {
-    agent_.publish_stats(false, now_ns);
+    agent_.publish_stats(false, wall_time_ns());
     next_stats_ = Clock::now() + seconds(config_.stats_period_s);
   }
 }
@@ -67,20 +67,20 @@ void AgentRunner::stream(const StopToken& stop) {
       summary_.max_lag_ms = std::max(summary_.max_lag_ms, lag_ms);
       if (lag_ms > 1e3 / fps) ++summary_.late_frames;
     }
-    agent_.process(*frame, wall_time_ns());
+    agent_.process(*frame, boot_time_ns());
     ++frames;
     if (config_.source.realtime) {
       // Serve acknowledgements while waiting for the next frame's time.
       const auto due = start + seconds(static_cast<double>(frames) / fps);
       do {
         const auto left = std::chrono::duration_cast<milliseconds>(due - Clock::now());
-        tick(wall_time_ns(), std::max(milliseconds(0), std::min(left, milliseconds(50))));
+        tick(std::max(milliseconds(0), std::min(left, milliseconds(50))));
       } while (Clock::now() < due && !stop.requested());
     } else {
-      tick(wall_time_ns(), milliseconds(0));
+      tick(milliseconds(0));
     }
   }
-  agent_.finish_stream(wall_time_ns());
+  agent_.finish_stream(boot_time_ns());
   summary_.stream_s = std::chrono::duration<double>(Clock::now() - start).count();
   logger_->info("stream ended after {} frames in {:.2f} s ({:.2f} s of flight), {} late", frames,
                 summary_.stream_s, summary_.flight_s(), summary_.late_frames);
@@ -89,7 +89,7 @@ void AgentRunner::stream(const StopToken& stop) {
 AgentOutcome AgentRunner::drain(const StopToken& stop) {
   const auto deadline = Clock::now() + seconds(config_.drain_timeout_s);
   while (agent_.pending() > 0 && Clock::now() < deadline && !stop.requested())
-    tick(wall_time_ns(), milliseconds(50));
+    tick(milliseconds(50));
   const auto pending = agent_.pending();
   agent_.publish_stats(!stop.requested(), wall_time_ns());
   if (!link_.flush_stats(milliseconds(3000)) && link_.matched_stations() > 0)

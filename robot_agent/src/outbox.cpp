@@ -158,8 +158,9 @@ std::vector<Keyframe> Outbox::due_for_resend(std::int64_t now_ns, std::size_t ma
       "SELECT sequence_number, frame_index, capture_time_ns, vslam_keyframe_index, "
       "window_first_frame, window_last_frame, quality_score, sharpness_score, semantic_score, "
       "encoding, width, height, image, pose, text_regions FROM pending "
-      "WHERE last_sent_ns IS NULL OR last_sent_ns <= ? ORDER BY sequence_number LIMIT ?");
-  query.bind(1, threshold).bind(2, static_cast<std::int64_t>(max));
+      "WHERE last_sent_ns IS NULL OR last_sent_ns <= ? OR last_sent_ns > ? ORDER BY "
+      "sequence_number LIMIT ?");
+  query.bind(1, threshold).bind(2, now_ns).bind(3, static_cast<std::int64_t>(max));
   std::vector<Keyframe> due;
   while (query.step()) {
     Keyframe k;
@@ -185,6 +186,8 @@ std::vector<Keyframe> Outbox::due_for_resend(std::int64_t now_ns, std::size_t ma
 }
 
 std::vector<std::uint64_t> Outbox::evict(std::int64_t now_ns, bool by_age) {
+  // Created before a reboot restarted the clock: aged from now, as after an outage.
+  db_.prepare("UPDATE pending SET created_ns = ?1 WHERE created_ns > ?1").bind(1, now_ns).step();
   const auto oldest_allowed = by_age ? now_ns - static_cast<std::int64_t>(bounds_.max_age_s * 1e9)
                                      : std::numeric_limits<std::int64_t>::min();
   auto query = db_.prepare(

@@ -287,6 +287,23 @@ TEST_F(OutboxTest, EvictionAgeCountsFromAddNotFromLastSend) {
   EXPECT_EQ(outbox.evict(kStart + 11 * kSecond), (std::vector<std::uint64_t>{0}));
 }
 
+// The outbox's clock (boot time) starts again from 0 at a reboot: what was stored before is in its
+// future. It is sent again at once and aged from the first eviction after the reboot, as keyframes
+// are after an outage, never kept forever nor given up on at once.
+TEST_F(OutboxTest, TimesFromBeforeARebootCountFromNow) {
+  const std::int64_t before_reboot = kStart + 1000 * kSecond;
+  {
+    Outbox outbox(path_, "drone_0", bounds(2.0, 1000, 10.0));
+    add_sent(outbox, "drone_0", before_reboot);
+  }
+  Outbox outbox(path_, "drone_0", bounds(2.0, 1000, 10.0));
+  const std::int64_t after_reboot = kStart;
+  EXPECT_EQ(sequences(outbox.due_for_resend(after_reboot, 10)), (std::vector<std::uint64_t>{0}));
+  EXPECT_TRUE(outbox.evict(after_reboot).empty());
+  EXPECT_TRUE(outbox.evict(after_reboot + 9 * kSecond).empty());
+  EXPECT_EQ(outbox.evict(after_reboot + 11 * kSecond), (std::vector<std::uint64_t>{0}));
+}
+
 TEST_F(OutboxTest, EvictWithinBoundsKeepsEverything) {
   Outbox outbox(path_, "drone_0", bounds(2.0, 10, 100.0));
   for (int i = 0; i < 4; ++i) add_sent(outbox, "drone_0", kStart);

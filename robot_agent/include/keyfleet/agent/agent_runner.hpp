@@ -44,7 +44,8 @@ class AgentRunner {
   bool wait_for_station(const StopToken& stop);
   void stream(const StopToken& stop);
   AgentOutcome drain(const StopToken& stop);
-  void tick(std::int64_t now_ns, std::chrono::milliseconds ack_wait);
+  // Services the outbox (on boot_time_ns()) and publishes stats when due (on the wall clock).
+  void tick(std::chrono::milliseconds ack_wait);
 
   AgentConfig config_;
   FrameSource& source_;

@@ -26,6 +26,8 @@ class KeyframeAgent {
                 std::unique_ptr<ImageCodec> codec, Outbox& outbox, AgentLink& link,
                 StageClock& clock, Logger logger);
 
+  // now_ns of process, finish_stream and service: the outbox's clock (boot_time_ns()); of
+  // publish_stats and stats: the wall clock, which the station's reports are on.
   void process(const Frame& frame, std::int64_t now_ns);
   void finish_stream(std::int64_t now_ns);
   // Takes acknowledgements (waiting up to ack_wait for the first), resends what is due

@@ -13,6 +13,8 @@ namespace keyfleet::agent {
 // The agent's durable store of keyframes not yet acknowledged by a station, in SQLite.
 // A keyframe enters before its first transmission and leaves when acknowledged or when
 // the configured bounds (count, age) evict it. Sequence numbers continue across restarts.
+// Times (now_ns) are on a clock that only moves forward, boot_time_ns() in the agent: ages never
+// jump with the wall clock. A time stored before a reboot, in that clock's future, counts as now.
 class Outbox {
  public:
   // Throws StartupError when the file belongs to another robot or cannot be opened.
