@@ -298,10 +298,16 @@ void visit(V& v, AgentConfig& c) {
 
 template <class V>
 void visit(V& v, StationLimits& c) {
-  v.field("max_image_bytes", c.max_image_bytes, at_least<std::uint64_t>(1));
-  v.field("max_width", c.max_width, at_least<std::uint32_t>(1));
-  v.field("max_height", c.max_height, at_least<std::uint32_t>(1));
+  using L = StationLimits;
+  v.field("max_image_bytes", c.max_image_bytes, between<std::uint64_t>(1, L::kCapImageBytes));
+  v.field("max_width", c.max_width, between<std::uint32_t>(1, L::kCapSide));
+  v.field("max_height", c.max_height, between<std::uint32_t>(1, L::kCapSide));
+  v.field("max_pixels", c.max_pixels, between<std::uint64_t>(1, L::kCapPixels));
+  v.field("max_scans", c.max_scans, between(1, L::kCapScans));
+  v.field("max_pixels_per_byte", c.max_pixels_per_byte, between(1.0, L::kCapPixelsPerByte));
   v.field("max_text_regions", c.max_text_regions, between(0, 100000));
+  v.field("allowed_robots", c.allowed_robots);
+  v.field("max_robots", c.max_robots, between(1, L::kCapRobots));
 }
 
 template <class V>
@@ -417,6 +423,14 @@ void validate(const AgentConfig& c, const std::string& origin) {
 
 void validate(const StationConfig& c, const std::string& origin) {
   validate(c.dds, origin);
+  for (const std::string& id : c.limits.allowed_robots)
+    if (!is_valid_robot_id(id))
+      throw ConfigError(origin + ": limits.allowed_robots: '" + id +
+                        "' is not a robot id ([A-Za-z0-9_-]{1,32})");
+  if (c.limits.allowed_robots.size() > static_cast<std::size_t>(c.limits.max_robots))
+    throw ConfigError(
+        origin + ": limits.allowed_robots: " + std::to_string(c.limits.allowed_robots.size()) +
+        " robots, more than limits.max_robots (" + std::to_string(c.limits.max_robots) + ")");
   const DashboardConfig& d = c.dashboard;
   if (d.enabled && !is_loopback_address(d.address) && d.token.empty())
     throw ConfigError(origin + ": dashboard.token: required when dashboard.address (" + d.address +

@@ -3,6 +3,8 @@
 #include <fastdds/dds/core/condition/WaitSet.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
+#include <algorithm>
+#include <memory>
 #include <mutex>
 #include <set>
 #include <string>
@@ -119,53 +121,54 @@ class DdsAgentLink final : public AgentLink {
 
 // Hears the robots' keyframe and stats writers being discovered; the station link subscribes to
 // their topics from its own thread (Fast DDS entities are not created inside its callbacks).
+// Only robots that `admission` admits are taken (it logs each refused one once): the robots
+// announced are bounded by limits.max_robots, and nothing is kept for a refused one.
 class RobotTopicDiscovery final : public fdds::DomainParticipantListener {
  public:
+  RobotTopicDiscovery(std::string partition, std::shared_ptr<RobotAdmission> admission)
+      : partition_(std::move(partition)), admission_(std::move(admission)) {}
+
   void on_publisher_discovery(fdds::DomainParticipant*,
                               eprosima::fastrtps::rtps::WriterDiscoveryInfo&& info) override {
     if (info.status != eprosima::fastrtps::rtps::WriterDiscoveryInfo::DISCOVERED_WRITER) return;
+    // Writers of every partition on the domain are announced; another mission's are not ours.
+    const auto partitions = info.info.m_qos.m_partition.names();
+    if (std::find(partitions.begin(), partitions.end(), partition_) == partitions.end()) return;
     const std::string topic = info.info.topicName().to_string();
     for (const std::string prefix : {kKeyframeTopicPrefix, kAgentStatsTopicPrefix})
       if (topic.size() > prefix.size() && topic.compare(0, prefix.size(), prefix) == 0) {
         const std::string robot = topic.substr(prefix.size());
+        if (admission_->admit(robot) != RobotAdmission::Verdict::kAdmitted) return;
         std::lock_guard<std::mutex> lock(mutex_);
-        if (announced_.count(robot) == 0) {
-          if (announced_.size() < kMaxRobotTopics) {
-            announced_.insert(robot);
-            fresh_.push_back(robot);
-          } else {
-            refused_ = true;
-          }
-        }
+        if (announced_.insert(robot).second) fresh_.push_back(robot);
         wake_.set_trigger_value(true);
       }
   }
 
-  // Robots announced since the last call; `refused` tells whether some were over the bound.
-  std::vector<std::string> take_new(bool& refused) {
+  // Robots announced since the last call.
+  std::vector<std::string> take_new() {
     std::lock_guard<std::mutex> lock(mutex_);
     wake_.set_trigger_value(false);
-    refused = refused_;
     return std::exchange(fresh_, {});
   }
 
   fdds::GuardCondition& wake() { return wake_; }
 
-  // Readers of announced robots, at most: a peer announcing topics without end fills no memory.
-  static constexpr std::size_t kMaxRobotTopics = 1024;
-
  private:
+  const std::string partition_;
+  const std::shared_ptr<RobotAdmission> admission_;
   std::mutex mutex_;
   std::set<std::string> announced_;
   std::vector<std::string> fresh_;  // announced, not taken yet
-  bool refused_ = false;
   fdds::GuardCondition wake_;
 };
 
 class DdsStationLink final : public StationLink {
  public:
-  DdsStationLink(const DdsSettings& settings, Logger logger)
+  DdsStationLink(const DdsSettings& settings, Logger logger,
+                 std::shared_ptr<RobotAdmission> admission)
       : logger_(logger),
+        discovery_(settings.partition, std::move(admission)),
         participant_(settings, "keyfleet_station", kStationIdentity, std::move(logger),
                      &discovery_),
         keyframe_type_(new wire::KeyframePubSubType()),
@@ -234,8 +237,7 @@ class DdsStationLink final : public StationLink {
   };
 
   void subscribe_new_robots() {
-    bool refused = false;
-    for (const auto& robot_id : discovery_.take_new(refused)) {
+    for (const auto& robot_id : discovery_.take_new()) {
       RobotReaders readers;
       readers.robot_id = robot_id;
       readers.keyframes = participant_.reader(
@@ -250,11 +252,6 @@ class DdsStationLink final : public StationLink {
       logger_->debug("subscribed to robot '{}''s keyframes and stats",
                      printable_text(robot_id, 64));
     }
-    if (refused && !warned_refused_) {
-      warned_refused_ = true;
-      logger_->error("more than {} robots announced keyframe topics: the others are not read",
-                     RobotTopicDiscovery::kMaxRobotTopics);
-    }
   }
 
   Logger logger_;
@@ -265,7 +262,6 @@ class DdsStationLink final : public StationLink {
   fdds::TypeSupport ack_type_;
   std::vector<RobotReaders> robots_;
   std::vector<fdds::DataReader*> readers_;
-  bool warned_refused_ = false;
   fdds::DataWriter* ack_writer_ = nullptr;
   fdds::WaitSet waitset_;
   wire::Keyframe keyframe_sample_;
@@ -279,8 +275,10 @@ std::unique_ptr<AgentLink> make_dds_agent_link(const DdsSettings& settings,
   return std::make_unique<DdsAgentLink>(settings, robot_id, std::move(logger));
 }
 
-std::unique_ptr<StationLink> make_dds_station_link(const DdsSettings& settings, Logger logger) {
-  return std::make_unique<DdsStationLink>(settings, std::move(logger));
+std::unique_ptr<StationLink> make_dds_station_link(const DdsSettings& settings, Logger logger,
+                                                   std::shared_ptr<RobotAdmission> admission) {
+  if (!admission) admission = std::make_shared<RobotAdmission>(StationLimits{}, logger);
+  return std::make_unique<DdsStationLink>(settings, std::move(logger), std::move(admission));
 }
 
 }  // namespace keyfleet

@@ -37,6 +37,22 @@ constexpr std::uint64_t kLinkCapPeriodMs = 10;
 constexpr std::int32_t kCappedWriterSamples = 2;
 constexpr long double kCappedWriterBlockingS = 0.005;
 
+// The station's readers of a robot's topics hold at most this many samples (keyless topics: one
+// instance), so a writer can make it keep at most that many times limits.max_image_bytes. The
+// keyframe depth is above the agents' writer depth (dds.keyframe_history_depth, 5): what a
+// writer has in flight fits.
+constexpr std::int32_t kKeyframeReaderSamples = 8;
+constexpr std::int32_t kStatsReaderSamples = 4;
+
+void bound_history(fdds::DataReaderQos& qos, std::int32_t samples) {
+  qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+  qos.history().depth = samples;
+  qos.resource_limits().max_samples = samples;
+  qos.resource_limits().max_instances = 1;
+  qos.resource_limits().max_samples_per_instance = samples;
+  qos.resource_limits().allocated_samples = std::min<std::int32_t>(samples, 2);
+}
+
 Locator_t udp_locator(const std::string& address) {
   Locator_t locator;
   locator.kind = LOCATOR_KIND_UDPv4;
@@ -239,17 +255,14 @@ fdds::DataReader* Participant::reader(fdds::Topic* topic, Stream stream) {
   qos.data_sharing().off();
   switch (stream) {
     case Stream::kKeyframes:
-      // KEEP_ALL bounded: when the station falls behind, the writer waits, nothing is lost.
+      // A few samples per robot, whatever their writer sends: a keyframe overwritten before the
+      // station takes it is never acknowledged, and the agent's outbox sends it again.
       qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
-      qos.history().kind = fdds::KEEP_ALL_HISTORY_QOS;
-      qos.resource_limits().max_samples = 256;
-      qos.resource_limits().max_samples_per_instance = 256;
-      qos.resource_limits().allocated_samples = 16;
+      bound_history(qos, kKeyframeReaderSamples);
       break;
     case Stream::kStats:
       qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
-      qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-      qos.history().depth = 64;
+      bound_history(qos, kStatsReaderSamples);
       break;
     case Stream::kAcks:
       qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;

@@ -22,8 +22,8 @@ namespace keyfleet::dds {
 namespace fdds = eprosima::fastdds::dds;
 
 enum class Stream {
-  kKeyframes,  // reliable, volatile, KEEP_LAST(depth) on the writer, KEEP_ALL on the reader
-  kStats,      // reliable, transient-local, latest few samples
+  kKeyframes,  // reliable, volatile, KEEP_LAST(depth) on the writer, KEEP_LAST 8 on the reader
+  kStats,      // reliable, transient-local, latest few samples (4 on the reader)
   kAcks,       // reliable, volatile, a deep KEEP_LAST
 };
 

@@ -40,8 +40,11 @@ int run(const ProcessOptions& options) {
     logger->warn("space for the reports: {} (the disk is nearly full)", report_space.problem());
   station::KeyframeStore store((fs::path(options.run_dir) / config.database).string());
   station::MissionLog mission_log((fs::path(options.run_dir) / config.mission_log).string());
-  auto link = make_dds_station_link(config.dds, logger);
-  station::GroundStation station(config.limits, store, mission_log, *link, logger);
+  // One admission for the link (which robots' topics are read) and the station (whose samples
+  // are handled).
+  auto admission = std::make_shared<RobotAdmission>(config.limits, logger);
+  auto link = make_dds_station_link(config.dds, logger, admission);
+  station::GroundStation station(config.limits, store, mission_log, *link, logger, admission);
 
   // Analysis behind the reader: engines first (start-up errors surface here), then the pool.
   const AnalysisConfig& analysis_config = config.analysis;
@@ -128,8 +131,9 @@ int run(const ProcessOptions& options) {
     return std::string();
   });
   write_report("the bandwidth report", [&] {
-    return station::write_bandwidth_report(station::build_bandwidth_report(store.totals()),
-                                           options.run_dir);
+    auto report = station::build_bandwidth_report(store.totals());
+    report.refused = admission->refusals();
+    return station::write_bandwidth_report(report, options.run_dir);
   });
   write_report("the analysis exports", [&] {
     return "\n" + station::write_analysis_exports(analysis_store, map, analysis.summary(),

@@ -6,8 +6,15 @@
 namespace keyfleet::station {
 
 GroundStation::GroundStation(const StationLimits& limits, KeyframeStore& store, MissionLog& log,
-                             StationLink& link, Logger logger)
-    : limits_(limits), store_(store), log_(log), link_(link), logger_(std::move(logger)) {}
+                             StationLink& link, Logger logger,
+                             std::shared_ptr<RobotAdmission> admission)
+    : limits_(limits),
+      store_(store),
+      log_(log),
+      link_(link),
+      logger_(std::move(logger)),
+      admission_(admission ? std::move(admission)
+                           : std::make_shared<RobotAdmission>(limits, logger_)) {}
 
 void GroundStation::note_robot(const std::string& robot_id) {
   if (!is_valid_robot_id(robot_id) || robots_.count(robot_id)) return;
@@ -16,7 +23,21 @@ void GroundStation::note_robot(const std::string& robot_id) {
   in_mission_log([&] { log_.event("robot joined: " + robot_id, wall_time_ns()); });
 }
 
+// A keyframe whose robot (its writer's, else the one it claims) is not served: rejected without
+// a trace in the database, the mission log or the station's maps; counted by the admission.
+// A malformed claimed id is left to find_keyframe_problem, which names it.
+std::optional<KeyframeAck> GroundStation::refuse_robot(const ReceivedKeyframe& received) {
+  const Keyframe& k = received.keyframe;
+  const std::string& robot = received.sender.empty() ? k.robot_id : received.sender;
+  if (received.sender.empty() && !is_valid_robot_id(robot)) return std::nullopt;
+  const RobotAdmission::Verdict verdict = admission_->admit_sample(robot);
+  if (verdict == RobotAdmission::Verdict::kAdmitted) return std::nullopt;
+  return KeyframeAck{k.robot_id, k.sequence_number, AckStatus::kRejected,
+                     "robot '" + printable_text(robot) + "' is not served: " + to_string(verdict)};
+}
+
 KeyframeAck GroundStation::handle(const ReceivedKeyframe& received, std::int64_t now_ns) {
+  if (auto refused = refuse_robot(received)) return *refused;
   const Keyframe& k = received.keyframe;
   KeyframeAck ack{k.robot_id, k.sequence_number, AckStatus::kStored, {}};
   auto problem = find_keyframe_problem(k, limits_, codec_);
@@ -88,6 +109,7 @@ void GroundStation::handle(const AgentStats& stats) {
                    stats.robot_id.substr(0, 64));
     return;
   }
+  if (admission_->admit_sample(stats.robot_id) != RobotAdmission::Verdict::kAdmitted) return;
   note_robot(stats.robot_id);
   store_.record_stats(stats);
   in_mission_log([&] { log_.agent_stats(stats); });

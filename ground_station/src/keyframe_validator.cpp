@@ -59,14 +59,14 @@ std::optional<std::string> find_keyframe_problem(const Keyframe& k, const Statio
   if (k.width == 0 || k.height == 0 || k.width > limits.max_width || k.height > limits.max_height)
     return "claimed size " + size_text(k.width, k.height) + " outside 1x1.." +
            size_text(limits.max_width, limits.max_height);
-  const auto header = jpeg_dimensions(k.image);
-  if (!header) return std::string("corrupt JPEG: no start-of-frame header");
-  if (header->width != k.width || header->height != k.height)
-    return "JPEG header says " + size_text(header->width, header->height) + ", sample claims " +
+  // The whole marker walk, then its cost against the limits: only then is the image decoded.
+  const JpegInspection jpeg = inspect_jpeg(k.image);
+  if (!jpeg.ok()) return jpeg.error;
+  const ImageSize header = jpeg.header.size;
+  if (header.width != k.width || header.height != k.height)
+    return "JPEG header says " + size_text(header.width, header.height) + ", sample claims " +
            size_text(k.width, k.height);
-  const auto n = k.image.size();
-  if (n < 2 || k.image[n - 2] != 0xFF || k.image[n - 1] != 0xD9)
-    return std::string("truncated JPEG: no end-of-image marker");
+  if (auto cost = find_jpeg_cost_problem(jpeg.header, k.image.size(), limits)) return cost;
   const DecodeResult decoded = codec.decode(k.image);
   if (!decoded.ok()) return decoded.error;
   if (static_cast<std::uint32_t>(decoded.image.cols) != k.width ||

@@ -52,6 +52,10 @@ TEST_F(MissionCommand, TwoDroneMissionPrintsReportAndSucceeds) {
   ASSERT_TRUE(std::regex_search(output, run_folder, std::regex(R"(run folder: (\S+))")));
   EXPECT_TRUE(std::filesystem::exists(std::filesystem::path(run_folder[1].str()) / "station" /
                                       "report.json"));
+  // The station it ran serves this mission's drones only.
+  const StationConfig station = load_station_config(
+      (std::filesystem::path(run_folder[1].str()) / "config" / "station.yaml").string());
+  EXPECT_EQ(station.limits.allowed_robots, (std::vector<std::string>{"drone_0", "drone_1"}));
 }
 
 TEST_F(MissionCommand, FailingAgentIsNamedWithItsReason) {

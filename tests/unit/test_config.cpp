@@ -3,6 +3,7 @@
 
 #include <filesystem>
 #include <string>
+#include <utility>
 
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/config_error.hpp"
@@ -241,6 +242,43 @@ TEST(ConfigBadValue, PpocrSettingsAreChecked) {
   EXPECT_NE(message.find("analysis.text.ppocr_box_threshold"), std::string::npos) << message;
 }
 
+TEST(ConfigBadValue, StationLimitsHaveHardCaps) {
+  const auto error_of = [](const std::string& line) {
+    return config_error_of([&] { parse_station_config("limits:\n  " + line, "station.yaml"); });
+  };
+  const std::pair<const char*, const char*> cases[] = {
+      {"max_width: 8193", "limits.max_width: must be between 1 and 8192"},
+      {"max_height: 0", "limits.max_height: must be between 1 and 8192"},
+      {"max_pixels: 33554433", "limits.max_pixels: must be between 1 and 33554432"},
+      {"max_image_bytes: 67108865", "limits.max_image_bytes: must be between 1 and 67108864"},
+      {"max_scans: 65", "limits.max_scans: must be between 1 and 64"},
+      {"max_pixels_per_byte: .nan", "limits.max_pixels_per_byte: must be a finite number"},
+      {"max_pixels_per_byte: 20000", "limits.max_pixels_per_byte: must be between 1 and 10000"},
+      {"max_robots: 1025", "limits.max_robots: must be between 1 and 1024"},
+      {"allowed_robots: [drone_0, ../etc]", "limits.allowed_robots: '../etc' is not a robot id"},
+      {"allowed_robots: [a, b, c]\n  max_robots: 2",
+       "limits.allowed_robots: 3 robots, more than limits.max_robots (2)"}};
+  for (const auto& [line, expected] : cases) {
+    const std::string message = error_of(line);
+    EXPECT_NE(message.find(expected), std::string::npos) << line << ": " << message;
+  }
+}
+
+TEST(ConfigRoundTrip, StationLimitsKeepTheirNewKeys) {
+  StationConfig c;
+  c.limits.max_pixels = 1000000;
+  c.limits.max_scans = 3;
+  c.limits.max_pixels_per_byte = 250.5;
+  c.limits.allowed_robots = {"drone_0", "drone_1"};
+  c.limits.max_robots = 5;
+  const StationConfig back = parse_station_config(to_yaml(c), "round-trip");
+  EXPECT_EQ(back.limits.max_pixels, 1000000u);
+  EXPECT_EQ(back.limits.max_scans, 3);
+  EXPECT_DOUBLE_EQ(back.limits.max_pixels_per_byte, 250.5);
+  EXPECT_EQ(back.limits.allowed_robots, c.limits.allowed_robots);
+  EXPECT_EQ(back.limits.max_robots, 5);
+}
+
 TEST(ConfigBadValue, MissionOptionalDomainIdIsRangeChecked) {
   const std::string message = config_error_of([] {
     parse_mission_config("domain_id: 300\nagent:\n  source:\n    max_frames: 5\n", "mission.yaml");
@@ -445,6 +483,16 @@ TEST(ShippedConfigs, AgentYamlLoads) {
 TEST(ShippedConfigs, StationYamlLoads) {
   const StationConfig c = load_station_config((configs_dir() / "station.yaml").string());
   EXPECT_GT(c.limits.max_image_bytes, 0u);
+  // The shipped file states the defaults of config.hpp.
+  const StationLimits defaults;
+  EXPECT_EQ(c.limits.max_image_bytes, defaults.max_image_bytes);
+  EXPECT_EQ(c.limits.max_width, defaults.max_width);
+  EXPECT_EQ(c.limits.max_height, defaults.max_height);
+  EXPECT_EQ(c.limits.max_pixels, defaults.max_pixels);
+  EXPECT_EQ(c.limits.max_scans, defaults.max_scans);
+  EXPECT_EQ(c.limits.max_pixels_per_byte, defaults.max_pixels_per_byte);
+  EXPECT_EQ(c.limits.allowed_robots, defaults.allowed_robots);
+  EXPECT_EQ(c.limits.max_robots, defaults.max_robots);
 }
 
 // configs/ naming: scenario_*.yaml are scenario files, eval*.yaml evaluations,

@@ -257,5 +257,71 @@ TEST_F(GroundStationTest, HandleReturnsTheAckWithoutSendingIt) {
   EXPECT_EQ(totals[0].first_received_ns, 12345);
 }
 
+void expect_not_served(const std::string& reason) {
+  EXPECT_NE(reason.find("is not served: not on limits.allowed_robots"), std::string::npos)
+      << reason;
+}
+
+StationLimits only_alpha() {
+  StationLimits limits;
+  limits.allowed_robots = {"alpha"};
+  limits.max_robots = 2;
+  return limits;
+}
+
+// A station serving only "alpha".
+class GroundStationAdmissionTest : public ::testing::Test {
+ protected:
+  std::size_t step_with(std::vector<ReceivedKeyframe> keyframes, std::vector<AgentStats> stats) {
+    StationInbox inbox;
+    inbox.keyframes = std::move(keyframes);
+    inbox.stats = std::move(stats);
+    link_.queue(std::move(inbox));
+    return station_.step(std::chrono::milliseconds(0));
+  }
+
+  keyfleet::test::TempDir dir_;
+  KeyframeStore store_{dir_.file("station.sqlite")};
+  MissionLog log_{dir_.file("mission_log.pb")};
+  FakeStationLink link_;
+  GroundStation station_{only_alpha(), store_, log_, link_, null_logger()};
+};
+
+TEST_F(GroundStationAdmissionTest, RobotNotAllowedIsRejectedWithoutATraceInTheDatabase) {
+  ReceivedKeyframe stranger = received(keyfleet::test::make_valid_keyframe("stranger", 0));
+  stranger.sender = "stranger";
+  ReceivedKeyframe claiming = received(keyfleet::test::make_valid_keyframe("invented", 1));
+  AgentStats stats;
+  stats.robot_id = "stranger";
+  EXPECT_EQ(step_with({stranger, stranger, claiming,
+                       received(keyfleet::test::make_valid_keyframe("alpha", 0))},
+                      {stats}),
+            4u);
+  ASSERT_EQ(link_.acks.size(), 4u);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(link_.acks[i].status, AckStatus::kRejected);
+    expect_not_served(link_.acks[i].reason);
+  }
+  EXPECT_EQ(link_.acks[3].status, AckStatus::kStored);
+
+  EXPECT_EQ(station_.robots(), (std::set<std::string>{"alpha"}));
+  const auto totals = store_.totals();
+  ASSERT_EQ(totals.size(), 1u) << "no rejection, stats or keyframe row for a refused robot";
+  EXPECT_EQ(totals[0].robot_id, "alpha");
+  std::vector<std::string> kinds;
+  read_mission_log_kinds(log_.path(), kinds);
+  EXPECT_EQ(kinds, (std::vector<std::string>{"event", "keyframe"}));
+
+  const RobotRefusals refusals = station_.admission().refusals();
+  EXPECT_EQ(refusals.not_allowed, 2u);  // stranger, invented
+  EXPECT_EQ(refusals.samples, 4u);      // three keyframes, one stats sample
+  BandwidthReport report = build_bandwidth_report(totals);
+  report.refused = refusals;
+  const std::string json = to_json(report);
+  EXPECT_NE(json.find("\"refused_robots\""), std::string::npos) << json;
+  EXPECT_NE(json.find("\"not_allowed\": 2"), std::string::npos) << json;
+  EXPECT_NE(format_table(report).find("robots refused: 2 not allowed"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace keyfleet::station

@@ -96,7 +96,7 @@ TEST_F(KeyframeValidatorTest, RejectsClaimedSizeAboveLimits) {
   limits_.max_width = 32;
   const std::string reason = reason_for(valid_);
   expect_mentions(reason, "claimed size 64x48");
-  expect_mentions(reason, "32x8192");
+  expect_mentions(reason, "32x4096");
 }
 
 TEST_F(KeyframeValidatorTest, RejectsClaimedHeightAboveLimits) {
@@ -154,6 +154,68 @@ TEST_F(KeyframeValidatorTest, RejectsJpegWhoseDataDoesNotDecode) {
   valid_.image.push_back(0xD9);
   const std::string reason = reason_for(valid_);
   expect_mentions(reason, "JPEG");
+}
+
+// Counts decode() calls: the cost checks must refuse before the decoder runs.
+class CountingCodec final : public ImageCodec {
+ public:
+  std::string encoding() const override { return inner_.encoding(); }
+  std::vector<std::uint8_t> encode(const cv::Mat& image) const override {
+    return inner_.encode(image);
+  }
+  DecodeResult decode(const std::vector<std::uint8_t>& bytes) const override {
+    ++decodes;
+    return inner_.decode(bytes);
+  }
+  mutable int decodes = 0;
+
+ private:
+  JpegCodec inner_{90};
+};
+
+TEST_F(KeyframeValidatorTest, AcceptsAProgressiveJpegWithinTheScanBound) {
+  cv::imencode(".jpg", keyfleet::test::make_smooth_image(64, 48), valid_.image,
+               {cv::IMWRITE_JPEG_PROGRESSIVE, 1});
+  EXPECT_EQ(find_keyframe_problem(valid_, limits_, codec_), std::nullopt);
+}
+
+TEST_F(KeyframeValidatorTest, RefusesCostlyJpegsBeforeDecodingThem) {
+  CountingCodec counting;
+  ASSERT_EQ(find_keyframe_problem(valid_, limits_, counting), std::nullopt);
+  ASSERT_EQ(counting.decodes, 1);
+
+  Keyframe progressive = valid_;
+  cv::imencode(".jpg", keyfleet::test::make_smooth_image(64, 48), progressive.image,
+               {cv::IMWRITE_JPEG_PROGRESSIVE, 1});
+  limits_.max_scans = 2;
+  auto reason = find_keyframe_problem(progressive, limits_, counting);
+  ASSERT_TRUE(reason.has_value());
+  expect_mentions(*reason, "max_scans 2");
+
+  limits_ = {};
+  Keyframe lossless = valid_;
+  lossless.image[*keyfleet::test::find_sof_marker(lossless.image) + 1] = 0xC3;
+  reason = find_keyframe_problem(lossless, limits_, counting);
+  ASSERT_TRUE(reason.has_value());
+  expect_mentions(*reason, "lossless");
+
+  // A small stream whose header (and claim) asks for a 4000x3000 frame.
+  Keyframe bomb = valid_;
+  bomb.image = keyfleet::test::with_sof_size(bomb.image, 4000, 3000);
+  bomb.width = 4000;
+  bomb.height = 3000;
+  reason = find_keyframe_problem(bomb, limits_, counting);
+  ASSERT_TRUE(reason.has_value());
+  expect_mentions(*reason, "pixels per byte");
+
+  EXPECT_EQ(counting.decodes, 1) << "a refused JPEG was decoded";
+}
+
+TEST_F(KeyframeValidatorTest, DefaultLimitsRefuseTheOldMaximumFrame) {
+  // 8192x8192 from an 8 MB sample was once accepted and decoded.
+  valid_.image = keyfleet::test::with_sof_size(valid_.image, 8192, 8192);
+  valid_.width = valid_.height = 8192;
+  expect_mentions(reason_for(valid_), "claimed size 8192x8192 outside 1x1..4096x4096");
 }
 
 }  // namespace

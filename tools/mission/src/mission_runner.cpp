@@ -3,6 +3,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <csignal>
 #include <ctime>
 #include <filesystem>
@@ -154,6 +155,11 @@ MissionResult MissionRunner::run(const StopToken& stop) {
     for (int i = 0; i < config_.drones; ++i)
       robot_ids.push_back(config_.robot_id_prefix + std::to_string(i));
   }
+
+  // The station serves this mission's drones only.
+  StationLimits& limits = config_.station.limits;
+  limits.allowed_robots = robot_ids;
+  limits.max_robots = std::max(limits.max_robots, static_cast<int>(robot_ids.size()));
 
   if (config_.security) {
     const fs::path credentials = run_dir / "security";

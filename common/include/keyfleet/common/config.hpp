@@ -179,12 +179,35 @@ struct AgentConfig {
   std::string log_level = "info";    // trace, debug, info, warn, error
 };
 
+// What the station accepts from a robot, checked before any image is decoded. Each knob has a
+// default and a hard cap (kCap...) that the config loader enforces, so that no setting makes a
+// single sample arbitrarily expensive.
 struct StationLimits {
+  static constexpr std::uint64_t kCapImageBytes = 64ULL << 20;
+  static constexpr std::uint32_t kCapSide = 8192;
+  static constexpr std::uint64_t kCapPixels = 32ULL << 20;
+  static constexpr int kCapScans = 64;
+  static constexpr double kCapPixelsPerByte = 10000;
+  static constexpr int kCapRobots = 1024;
+
   std::uint64_t max_image_bytes = 8ULL << 20;  // larger samples are rejected
-  std::uint32_t max_width = 8192;              // claimed or decoded dimensions above these
-  std::uint32_t max_height = 8192;             //   are rejected before decoding
+  std::uint32_t max_width = 4096;              // claimed or JPEG-header dimensions above these
+  std::uint32_t max_height = 4096;             //   are rejected before decoding
+  std::uint64_t max_pixels = 4096ULL * 3072;   // width x height at most (12.6 MP)
+  // JPEG scans (SOS markers) at most: a baseline JPEG has 1 (3 when not interleaved), a
+  // progressive one about 10; each scan is another pass of the decoder over the image.
+  int max_scans = 16;
+  // Decompression-bomb bound: pixels per compressed byte at most. A photo is 2-20, a uniform
+  // baseline image below 200; only a crafted stream (e.g. progressive end-of-band runs) asks
+  // for thousands of pixels per byte.
+  double max_pixels_per_byte = 1000;
   // A keyframe's text regions beyond this many are ignored (the image is still stored).
   int max_text_regions = 64;
+  // Robots served: only these ids (empty = any authenticated robot), and at most max_robots of
+  // them, first come first served. A refused robot's topics are not read, its samples are
+  // rejected, and nothing is stored for it.
+  std::vector<std::string> allowed_robots;
+  int max_robots = 64;
 };
 
 // Reading the words in received keyframes: the station's TextReader, and every tool that

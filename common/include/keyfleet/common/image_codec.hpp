@@ -2,16 +2,12 @@
 #include <opencv2/core.hpp>
 
 #include <cstdint>
-#include <optional>
 #include <string>
 #include <vector>
 
-namespace keyfleet {
+#include "keyfleet/common/jpeg_header.hpp"
 
-struct ImageSize {
-  std::uint32_t width = 0;
-  std::uint32_t height = 0;
-};
+namespace keyfleet {
 
 struct DecodeResult {
   cv::Mat image;      // empty on failure
@@ -39,9 +35,5 @@ class JpegCodec final : public ImageCodec {
  private:
   int quality_;
 };
-
-// Reads the frame size from a JPEG's SOF marker without decoding it, so that a hostile
-// header cannot make the decoder allocate gigabytes. nullopt when there is no valid SOF.
-std::optional<ImageSize> jpeg_dimensions(const std::vector<std::uint8_t>& bytes);
 
 }  // namespace keyfleet

@@ -4,6 +4,7 @@
 
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
+#include "keyfleet/common/robot_admission.hpp"
 #include "keyfleet/common/topic_names.hpp"
 #include "keyfleet/common/transport.hpp"
 
@@ -20,6 +21,13 @@ void apply_dds_environment(DdsSettings& settings);
 // Both throw StartupError naming the entity that could not be created.
 std::unique_ptr<AgentLink> make_dds_agent_link(const DdsSettings& settings,
                                                const std::string& robot_id, Logger logger);
-std::unique_ptr<StationLink> make_dds_station_link(const DdsSettings& settings, Logger logger);
+// The station reads the topics of the robots `admission` admits (null: the default limits'),
+// as their writers are discovered. Its take() runs on the caller's thread: no sample is
+// converted, validated or decoded on a Fast DDS thread. Each robot's keyframe and stats readers
+// keep a few samples (KEEP_LAST, bounded resource limits); one overwritten before it is taken
+// is not acknowledged, so the agent's outbox sends it again.
+std::unique_ptr<StationLink> make_dds_station_link(
+    const DdsSettings& settings, Logger logger,
+    std::shared_ptr<RobotAdmission> admission = nullptr);
 
 }  // namespace keyfleet

@@ -3,6 +3,7 @@
 #include <string>
 #include <vector>
 
+#include "keyfleet/common/robot_admission.hpp"
 #include "keyfleet/station/keyframe_store.hpp"
 
 namespace keyfleet::station {
@@ -39,6 +40,9 @@ struct BandwidthRow {
 struct BandwidthReport {
   std::vector<BandwidthRow> robots;
   BandwidthRow fleet;
+  // Robots the station did not serve (limits.allowed_robots, max_robots): nothing of theirs is
+  // stored, so this is known only to the running station, which sets it before writing.
+  RobotRefusals refused;
 };
 
 BandwidthReport build_bandwidth_report(const std::vector<RobotTotals>& totals);

@@ -5,14 +5,17 @@
 
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/image_codec.hpp"
+#include "keyfleet/common/jpeg_header.hpp"
 #include "keyfleet/common/printable_text.hpp"
 #include "keyfleet/common/types.hpp"
 
 namespace keyfleet::station {
 
 // Checks a received keyframe before the station trusts it: robot id format, encoding,
-// sizes (claimed, in the JPEG header, and decoded, all against the limits), and that the
-// image decodes. Returns the reason for rejection, or nullopt when it is acceptable.
+// sizes (claimed, in the JPEG header, and decoded, all against the limits), the JPEG's markers
+// walked and its decoding cost bounded (coding process, scans, pixels, pixels per byte:
+// find_jpeg_cost_problem), and only then that the image decodes. Returns the reason for
+// rejection, or nullopt when it is acceptable.
 std::optional<std::string> find_keyframe_problem(const Keyframe& keyframe,
                                                  const StationLimits& limits,
                                                  const ImageCodec& codec);
