@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# The test suite under sanitizers (long: not part of CI). "address": the whole project with gcc,
+# ASan and UBSan (RelWithDebInfo) in $KEYFLEET_ASAN_BUILD_DIR (default build-asan/), then the
+# whole ctest suite. "thread": the station's worker-pool tests with TSan in
+# $KEYFLEET_TSAN_BUILD_DIR (default build-tsan/, only those tests and what they link). Reports
+# from third-party libraries are suppressed by tests/sanitizers/*.supp, each entry saying why.
+#   ./scripts/sanitize.sh [address|thread|all] [ctest options for the address run...]
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+what=${1:-all}
+shift || true
+supp=$root/tests/sanitizers
+jobs=${KEYFLEET_JOBS:-$(nproc)}
+export KEYFLEET_DATA=${KEYFLEET_DATA:-$root/../shared/data}
+generator=()
+command -v ninja >/dev/null 2>&1 && generator=(-G Ninja)
+launcher=()
+command -v ccache >/dev/null 2>&1 && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+
+configure() {  # BUILD_DIR SANITIZERS
+  [ -f "$1/CMakeCache.txt" ] && return
+  cmake -S "$root" -B "$1" "${generator[@]}" "${launcher[@]}" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DKEYFLEET_SANITIZE="$2" -DKEYFLEET_BUILD_TESTS=ON -DKEYFLEET_BUILD_BENCHMARKS=OFF \
+    -DKEYFLEET_WARNINGS_AS_ERRORS=ON
+}
+
+case "$what" in address|thread|all) ;; *)
+  echo "sanitize: error: unknown run '$what' (address, thread or all)" >&2; exit 2 ;;
+esac
+
+if [ "$what" != thread ]; then
+  dir=${KEYFLEET_ASAN_BUILD_DIR:-$root/build-asan}
+  configure "$dir" address,undefined
+  cmake --build "$dir" --parallel "$jobs"
+  ASAN_OPTIONS=detect_leaks=1:detect_stack_use_after_return=0:strict_string_checks=1 \
+  LSAN_OPTIONS=suppressions=$supp/lsan.supp:print_suppressions=0 \
+  UBSAN_OPTIONS=suppressions=$supp/ubsan.supp:print_stacktrace=1:halt_on_error=1 \
+    ctest --test-dir "$dir" --output-on-failure --parallel "$jobs" "$@"
+fi
+
+if [ "$what" != address ]; then
+  dir=${KEYFLEET_TSAN_BUILD_DIR:-$root/build-tsan}
+  configure "$dir" thread
+  cmake --build "$dir" --target test_station_analysis --parallel "$jobs"
+  TSAN_OPTIONS=suppressions=$supp/tsan.supp:halt_on_error=1:second_deadlock_stack=1 \
+    ctest --test-dir "$dir" -R '^(AnalysisPool|AnalysisStoreTest|ReadOnlyStores)\.' \
+    --output-on-failure --parallel "$jobs"
+fi
