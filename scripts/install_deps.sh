@@ -41,6 +41,7 @@ PACKAGES=(
   tesseract-ocr-eng wamerican sqlite3
   libgtest-dev libgmock-dev googletest
   libbenchmark-dev
+  clang-14 libclang-rt-14-dev libfuzzer-14-dev
   procps
   openssl
   iproute2 nftables

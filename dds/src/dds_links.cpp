@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "dds_checked_type.hpp"
 #include "dds_participant.hpp"
 #include "dds_wire_conversion.hpp"
 #include "keyfleet/common/error.hpp"
@@ -45,9 +46,9 @@ class DdsAgentLink final : public AgentLink {
  public:
   DdsAgentLink(const DdsSettings& settings, const std::string& robot_id, Logger logger)
       : participant_(settings, "keyfleet_agent", robot_id, std::move(logger)),
-        keyframe_type_(new wire::KeyframePubSubType()),
-        stats_type_(new wire::AgentStatsPubSubType()),
-        ack_type_(new wire::KeyframeAckPubSubType()) {
+        keyframe_type_(new dds::CheckedType<wire::KeyframePubSubType>()),
+        stats_type_(new dds::CheckedType<wire::AgentStatsPubSubType>()),
+        ack_type_(new dds::CheckedType<wire::KeyframeAckPubSubType>()) {
     keyframe_writer_ = participant_.writer(
         participant_.topic(kKeyframeTopicPrefix + robot_id, keyframe_type_), Stream::kKeyframes);
     stats_writer_ = participant_.writer(
@@ -171,9 +172,9 @@ class DdsStationLink final : public StationLink {
         discovery_(settings.partition, std::move(admission)),
         participant_(settings, "keyfleet_station", kStationIdentity, std::move(logger),
                      &discovery_),
-        keyframe_type_(new wire::KeyframePubSubType()),
-        stats_type_(new wire::AgentStatsPubSubType()),
-        ack_type_(new wire::KeyframeAckPubSubType()) {
+        keyframe_type_(new dds::CheckedType<wire::KeyframePubSubType>()),
+        stats_type_(new dds::CheckedType<wire::AgentStatsPubSubType>()),
+        ack_type_(new dds::CheckedType<wire::KeyframeAckPubSubType>()) {
     ack_writer_ =
         participant_.writer(participant_.topic(kKeyframeAckTopic, ack_type_), Stream::kAcks);
     waitset_.attach_condition(discovery_.wake());

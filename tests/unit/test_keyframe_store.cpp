@@ -41,6 +41,8 @@ const RobotTotals* find_robot(const std::vector<RobotTotals>& totals, const std:
     if (t.robot_id == id) return &t;
   return nullptr;
 }
+// A pointer into a temporary would dangle: keep the totals in a variable.
+const RobotTotals* find_robot(std::vector<RobotTotals>&&, const std::string&) = delete;
 
 class KeyframeStoreTest : public ::testing::Test {
  protected:
@@ -127,7 +129,8 @@ TEST_F(KeyframeStoreTest, SameSequenceWithAnotherImageIsAConflictAndBothAreKept)
   ASSERT_TRUE(kept.step());
   EXPECT_EQ(kept.blob(0), second.image);
   EXPECT_FALSE(kept.step());
-  const RobotTotals* totals = find_robot(store.totals(), "drone_0");
+  const auto all = store.totals();
+  const RobotTotals* totals = find_robot(all, "drone_0");
   ASSERT_NE(totals, nullptr);
   EXPECT_EQ(totals->keyframes, 1u);
   EXPECT_EQ(totals->conflicts, 1u);

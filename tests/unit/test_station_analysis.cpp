@@ -324,8 +324,9 @@ TEST(ReadOnlyStores, WriteNothingAndReadOlderDatabases) {
     const AnalysisStore analysis(other, SqliteDb::Mode::kReadOnly);
     EXPECT_THROW(analysis.search_words("HOTEL"), SqliteError);
   }
-  auto tables = SqliteDb(other, SqliteDb::Mode::kReadOnly)
-                    .prepare("SELECT group_concat(name) FROM sqlite_master WHERE type = 'table'");
+  // Must outlive its statement: sqlite3_close fails, and leaks, while a statement is open.
+  SqliteDb reader(other, SqliteDb::Mode::kReadOnly);
+  auto tables = reader.prepare("SELECT group_concat(name) FROM sqlite_master WHERE type = 'table'");
   ASSERT_TRUE(tables.step());
   EXPECT_EQ(tables.text(0), "unrelated");
   EXPECT_THROW(KeyframeStore(dir.file("missing.sqlite"), SqliteDb::Mode::kReadOnly), SqliteError);
