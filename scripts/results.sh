@@ -150,6 +150,7 @@ seeds_block() {
     echo "**Forward-looking street** (\`configs/eval.yaml\`, the demo's kind; seeds 11, 12, 13):"
     echo
     echo "$forward"
+    echo
     echo "**Side-looking street** (\`configs/eval_side.yaml\`; seeds 21, 22, 23):"
     echo
     echo "$side"
