@@ -27,9 +27,7 @@ using std::chrono::seconds;
 class Faults : public FleetFixture {
  protected:
   void TearDown() override {
-    // A SIGKILLed process leaves its Fast DDS shared-memory segments behind.
-    if (std::system("fastdds shm clean > /dev/null 2>&1") != 0)
-      std::cerr << "note: 'fastdds shm clean' failed; stale /dev/shm/fastrtps_* may remain\n";
+    remove_stale_shared_memory();
     FleetFixture::TearDown();
   }
 

@@ -1,7 +1,6 @@
 // The station is killed (SIGKILL) mid-mission and restarted: every keyframe published
 // before, during and after the outage is stored exactly once, byte for byte.
 #include <csignal>
-#include <cstdlib>
 #include <fstream>
 
 #include <nlohmann/json.hpp>
@@ -19,9 +18,7 @@ using std::chrono::seconds;
 class StationOutage : public FleetFixture {
  protected:
   void TearDown() override {
-    // SIGKILL leaves the dead station's shared-memory segments behind; remove them.
-    if (std::system("fastdds shm clean > /dev/null 2>&1") != 0)
-      std::cerr << "note: 'fastdds shm clean' failed; stale /dev/shm/fastrtps_* may remain\n";
+    remove_stale_shared_memory();
     FleetFixture::TearDown();
   }
 };

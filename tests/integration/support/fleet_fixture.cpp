@@ -3,7 +3,9 @@
 #include <unistd.h>
 
 #include <csignal>
+#include <cstdlib>
 #include <fstream>
+#include <iostream>
 #include <random>
 
 #include "keyfleet/common/sqlite.hpp"
@@ -67,6 +69,11 @@ void FleetFixture::TearDown() {
     fs::remove_all(run_dir_);
   else
     std::cerr << "run folder kept for inspection: " << run_dir_ << "\n";
+}
+
+void FleetFixture::remove_stale_shared_memory() {
+  if (std::system("fastdds shm clean > /dev/null 2>&1") != 0)
+    std::cerr << "note: 'fastdds shm clean' failed; stale /dev/shm/fastrtps_* may remain\n";
 }
 
 DdsSettings FleetFixture::dds() const {

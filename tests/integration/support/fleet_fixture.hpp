@@ -38,6 +38,8 @@ class FleetFixture : public ::testing::Test {
  protected:
   void SetUp() override;
   void TearDown() override;
+  // For tests that SIGKILL a process: its Fast DDS shared-memory segments stay behind.
+  static void remove_stale_shared_memory();
 
   // Settings shared by every process of this test: unique domain and partition,
   // fast discovery (lease 2 s, announcements 0.5 s) so that tests wait seconds, not tens.
