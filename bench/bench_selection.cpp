@@ -6,7 +6,9 @@
 // pass/fail.
 //   build/bin/bench_selection [--benchmark_repetitions=5 --benchmark_report_aggregates_only=true]
 //   build/bin/bench_selection --benchmark_filter=quality/ --benchmark_repetitions=9
+//   build/bin/bench_selection --benchmark_filter=DecodeFrame --benchmark_repetitions=9
 #include <benchmark/benchmark.h>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <filesystem>
@@ -20,6 +22,7 @@
 #include "keyfleet/agent/keyframe_selector.hpp"
 #include "keyfleet/agent/keyframe_trigger.hpp"
 #include "keyfleet/agent/klt_trigger.hpp"
+#include "keyfleet/common/jpeg_turbo.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/process_tuning.hpp"
 #include "keyfleet/eval/image_quality_reference.hpp"
@@ -255,6 +258,36 @@ void BM_KltTrigger(benchmark::State& state) {  // arg: image scale in percent
   for (auto _ : state) benchmark::DoNotOptimize(trigger.is_keyframe(flight().frames[i++ % 150]));
 }
 BENCHMARK(BM_KltTrigger)->Arg(50)->Arg(100)->Unit(benchmark::kMillisecond);
+
+// --- the replay source's decoding ------------------------------------------------------------
+
+// The flight's frames as the scenario stores them (JPEG, quality 92).
+const std::vector<std::vector<std::uint8_t>>& flight_jpegs() {
+  static const auto jpegs = [] {
+    std::vector<std::vector<std::uint8_t>> out(flight().frames.size());
+    for (std::size_t i = 0; i < out.size(); ++i)
+      cv::imencode(".jpg", flight().frames[i].image, out[i], {cv::IMWRITE_JPEG_QUALITY, 92});
+    return out;
+  }();
+  return jpegs;
+}
+
+// One 640x480 frame from its JPEG into a new BGR image, as the source hands it on: arg 0 =
+// cv::imdecode (what cv::imread did before), 1 = decode_jpeg_bgr (libjpeg-turbo, BGR out).
+void BM_DecodeFrame(benchmark::State& state) {
+  const auto& jpegs = flight_jpegs();
+  std::size_t i = 0;
+  for (auto _ : state) {
+    const auto& bytes = jpegs[i++ % jpegs.size()];
+    cv::Mat image;
+    if (state.range(0) == 0)
+      image = cv::imdecode(bytes, cv::IMREAD_COLOR);
+    else
+      keyfleet::decode_jpeg_bgr(bytes.data(), bytes.size(), image);
+    benchmark::DoNotOptimize(image.data);
+  }
+}
+BENCHMARK(BM_DecodeFrame)->ArgName("turbo")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 // The whole selection, amortised per frame over the flight: strategy quality, or full with the
 // shipped MiniNet at its configured input size (one thread); trigger 0 = a stride (no cost, the

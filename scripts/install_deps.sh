@@ -23,6 +23,7 @@ BUILD_PACKAGES=(
   nlohmann-json3-dev
   libcpp-httplib-dev
   libsqlite3-dev
+  libjpeg62-turbo-dev
 )
 
 # What the programs load at run time, for the images' runtime stages: no compiler, no -dev
@@ -30,7 +31,7 @@ BUILD_PACKAGES=(
 # runtime stages check with ldd that nothing is missing.
 RUNTIME_PACKAGES=(
   libfastrtps2.9 libfastcdr1 libspdlog1.10 libfmt9 libyaml-cpp0.7 libsqlite3-0
-  libopencv-core406 libopencv-imgproc406 libopencv-imgcodecs406
+  libopencv-core406 libopencv-imgproc406 libopencv-imgcodecs406 libjpeg62-turbo
   libopencv-features2d406 libopencv-calib3d406 libopencv-dnn406
 )
 RUNTIME_AGENT_PACKAGES=(libopencv-videoio406)

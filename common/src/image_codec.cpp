@@ -3,6 +3,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/common/jpeg_turbo.hpp"
 
 namespace keyfleet {
 
@@ -13,6 +14,7 @@ JpegCodec::JpegCodec(int quality) : quality_(quality) {
 
 std::vector<std::uint8_t> JpegCodec::encode(const cv::Mat& image) const {
   std::vector<std::uint8_t> bytes;
+  if (encode_jpeg_bgr(image, quality_, bytes)) return bytes;  // BGR: no RGB copy on the way
   cv::imencode(".jpg", image, bytes, {cv::IMWRITE_JPEG_QUALITY, quality_});
   return bytes;
 }

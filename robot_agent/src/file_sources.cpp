@@ -1,5 +1,4 @@
 // Frame sources that read recordings: a folder of images, or a video file.
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 
 #include <algorithm>
@@ -8,6 +7,7 @@
 
 #include "keyfleet/agent/frame_source.hpp"
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/common/jpeg_turbo.hpp"
 
 namespace keyfleet::agent {
 namespace {
@@ -46,7 +46,7 @@ class ImageFolderSource final : public FrameSource {
     while (position_ < files_.size()) {
       if (config_.max_frames && emitted_ >= config_.max_frames) return std::nullopt;
       const fs::path& file = files_[position_++];
-      cv::Mat image = cv::imread(file.string(), cv::IMREAD_COLOR);
+      cv::Mat image = read_image_bgr(file.string(), file_bytes_);
       if (image.empty()) {
         logger_->error("skipping unreadable image {}", file.string());
         continue;
@@ -69,6 +69,7 @@ class ImageFolderSource final : public FrameSource {
   std::vector<fs::path> files_;
   std::size_t position_ = 0;
   std::uint64_t emitted_ = 0;
+  std::vector<std::uint8_t> file_bytes_;  // the current image's file, one buffer for all
 };
 
 class VideoFileSource final : public FrameSource {

@@ -1,11 +1,10 @@
 // Replays a drone of a generated scenario: its frames, timestamps and true poses.
-#include <opencv2/imgcodecs.hpp>
-
 #include <algorithm>
 #include <filesystem>
 
 #include "keyfleet/agent/frame_source.hpp"
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/common/jpeg_turbo.hpp"
 #include "keyfleet/common/scenario_truth.hpp"
 
 namespace keyfleet::agent {
@@ -44,7 +43,7 @@ class ScenarioSource final : public FrameSource {
     while (position_ < truth_.size()) {
       if (config_.max_frames && position_ >= config_.max_frames) return std::nullopt;
       const auto& truth = truth_[position_++];
-      cv::Mat image = cv::imread((folder_ / truth.image).string(), cv::IMREAD_COLOR);
+      cv::Mat image = read_image_bgr((folder_ / truth.image).string(), file_bytes_);
       if (image.empty()) {
         logger_->error("skipping unreadable scenario frame {}", (folder_ / truth.image).string());
         continue;
@@ -67,6 +66,7 @@ class ScenarioSource final : public FrameSource {
   double fps_ = 30;
   std::vector<scenario::FrameTruth> truth_;
   std::size_t position_ = 0;
+  std::vector<std::uint8_t> file_bytes_;  // the current frame's file, one buffer for all
 };
 
 }  // namespace
