@@ -186,8 +186,12 @@ std::vector<Keyframe> Outbox::due_for_resend(std::int64_t now_ns, std::size_t ma
 }
 
 std::vector<std::uint64_t> Outbox::evict(std::int64_t now_ns, bool by_age) {
-  // Created before a reboot restarted the clock: aged from now, as after an outage.
-  db_.prepare("UPDATE pending SET created_ns = ?1 WHERE created_ns > ?1").bind(1, now_ns).step();
+  if (!clock_checked_) {
+    // Created before a reboot restarted the clock: aged from now, as after an outage. Once is
+    // enough: every time stored after this comes from the same clock.
+    db_.prepare("UPDATE pending SET created_ns = ?1 WHERE created_ns > ?1").bind(1, now_ns).step();
+    clock_checked_ = true;
+  }
   const auto oldest_allowed = by_age ? now_ns - static_cast<std::int64_t>(bounds_.max_age_s * 1e9)
                                      : std::numeric_limits<std::int64_t>::min();
   auto query = db_.prepare(

@@ -40,6 +40,7 @@ class Outbox {
  private:
   mutable SqliteDb db_;
   OutboxConfig bounds_;
+  bool clock_checked_ = false;  // creation times from before a reboot moved to now
   std::string robot_id_;
   std::uint64_t next_sequence_ = 0;
 };
