@@ -138,16 +138,22 @@ TEST_F(GeneratedFlight, OrbSlamTriggerNeverFiresAgainOnAStaticNoisyCamera) {
   }
 }
 
-TEST(OrbSlamTrigger, FiresRepeatedlyOnARealHandHeldVideo) {
-  KEYFLEET_REQUIRE_DATA("opencv_samples/video/box.mp4");
+// The first `count` frames of a video file, decoded as the agent's video source does.
+std::vector<Frame> first_frames_of(const std::filesystem::path& video, std::uint64_t count) {
   SourceConfig config;
   config.kind = SourceConfig::Kind::kVideoFile;
-  config.path = data_path.string();
-  config.max_frames = 60;
+  config.path = video.string();
+  config.max_frames = count;
   config.realtime = false;
   auto source = make_frame_source(config, null_logger());
   std::vector<Frame> frames;
   while (auto frame = source->next()) frames.push_back(*frame);
+  return frames;
+}
+
+TEST(OrbSlamTrigger, FiresRepeatedlyOnARealHandHeldVideo) {
+  KEYFLEET_REQUIRE_DATA("opencv_samples/video/box.mp4");
+  const std::vector<Frame> frames = first_frames_of(data_path, 60);
   ASSERT_EQ(frames.size(), 60u);
   OrbSlamTrigger trigger(default_trigger_params());
   expect_fires_repeatedly(fired_on(trigger, frames), frames.size());
@@ -302,14 +308,7 @@ TEST_F(GeneratedFlight, KltTriggerAgreesWithTheOrbTriggerOnAGeneratedFlight) {
 
 TEST(KltSlamTrigger, FiresRepeatedlyOnARealHandHeldVideo) {
   KEYFLEET_REQUIRE_DATA("opencv_samples/video/box.mp4");
-  SourceConfig config;
-  config.kind = SourceConfig::Kind::kVideoFile;
-  config.path = data_path.string();
-  config.max_frames = 60;
-  config.realtime = false;
-  auto source = make_frame_source(config, null_logger());
-  std::vector<Frame> frames;
-  while (auto frame = source->next()) frames.push_back(*frame);
+  const std::vector<Frame> frames = first_frames_of(data_path, 60);
   ASSERT_EQ(frames.size(), 60u);
   KltSlamTrigger trigger(default_klt_params());
   expect_fires_repeatedly(fired_on(trigger, frames), frames.size());

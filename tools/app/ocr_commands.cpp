@@ -18,6 +18,7 @@
 #include "commands.hpp"
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/common/file_output.hpp"
 #include "keyfleet/eval/eval_runner.hpp"
 #include "keyfleet/eval/run_text_score.hpp"
 #include "keyfleet/eval/text_dataset_eval.hpp"
@@ -140,7 +141,7 @@ void run_eval(const OcrOptions& o) {
       table += row;
     }
   }
-  if (!o.out.empty()) eval::write_text_file(o.out, table);
+  if (!o.out.empty()) write_file(o.out, table);
 }
 
 void run_read(const OcrOptions& o) {
@@ -218,7 +219,7 @@ void print_run_text_score(const std::string& run_dir, const std::string& scenari
     const auto score = eval::score_run_text(scenario_dir, (station / "station.sqlite").string());
     const std::string text = eval::format_run_text_score(score);
     std::cout << "\n" << text;
-    eval::write_text_file((station / "text_score.txt").string(), text);
+    write_file(station / "text_score.txt", text);
   } catch (const std::exception& e) {
     std::cout << "\nText read: not scored against the scenario: " << e.what() << "\n";
   }

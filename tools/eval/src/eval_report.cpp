@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/common/file_output.hpp"
 #include "keyfleet/eval/eval_runner.hpp"
 
 namespace keyfleet::eval {
@@ -197,12 +198,6 @@ const PointSummary* find_point(const std::vector<PointSummary>& summary,
   return nullptr;
 }
 
-void write_text_file(const std::string& path, const std::string& text) {
-  std::ofstream out(path);
-  out << text;
-  if (!out) throw StartupError("eval: cannot write " + path);
-}
-
 void write_results(const EvalResults& r, const std::string& out_dir) {
   fs::create_directories(out_dir);
   nlohmann::json j;
@@ -254,9 +249,9 @@ void write_results(const EvalResults& r, const std::string& out_dir) {
                {"orb_ms", c.orb_ms},
                {"wall_s", c.wall_s}};
   const fs::path dir(out_dir);
-  write_text_file((dir / "results.json").string(), j.dump(2) + "\n");
-  write_text_file((dir / "results.csv").string(), csv(r));
-  write_text_file((dir / "report.md").string(), report(r));
+  write_file(dir / "results.json", j.dump(2) + "\n");
+  write_file(dir / "results.csv", csv(r));
+  write_file(dir / "report.md", report(r));
 }
 
 bool plot_results(const std::string& out_dir, const std::string& python, std::string& problem,

@@ -7,6 +7,8 @@
 #include <sstream>
 #include <utility>
 
+#include "keyfleet/common/file_output.hpp"
+
 namespace keyfleet::eval {
 namespace {
 
@@ -134,9 +136,9 @@ void write_seed_results(const std::vector<SeedPoint>& points,
        << interval_text(p.top5, 100, 1) << " | " << interval_text(p.words_read_vs_vslam, 1, 1)
        << " | " << interval_text(p.top1_vs_vslam, 100, 1) << " |\n";
   }
-  write_text_file((dir / "seeds.json").string(), doc.dump(2) + "\n");
-  write_text_file((dir / "seeds.csv").string(), csv.str());
-  write_text_file((dir / "seeds.md").string(), md.str());
+  write_file(dir / "seeds.json", doc.dump(2) + "\n");
+  write_file(dir / "seeds.csv", csv.str());
+  write_file(dir / "seeds.md", md.str());
 }
 
 }  // namespace keyfleet::eval

@@ -94,9 +94,6 @@ EvalResults run_eval(const EvalConfig& config, const std::string& scenario_dir, 
 const PointSummary* find_point(const std::vector<PointSummary>& summary,
                                const std::string& strategy, double density);
 
-// Writes `text` to `path`; StartupError naming the file when it cannot.
-void write_text_file(const std::string& path, const std::string& text);
-
 // Sums and means per (strategy, density), in the order of `strategies` then `densities`.
 std::vector<PointSummary> summarise(const std::vector<WordScore>& words,
                                     const std::vector<PlaceScore>& places,
