@@ -86,7 +86,8 @@ void BM_AnalyseKeyframe(benchmark::State& state) {
     state.SkipWithError(e.what());
     return;
   }
-  KeyframeAnalyzer analyzer(std::move(reader), places.get(), config, null_logger());
+  KeyframeAnalyzer analyzer(std::move(reader), places.get(),
+                            make_configured_place_describer(config.places), config, null_logger());
   const auto& jobs = keyframes().jobs;
   std::size_t i = 0, words = 0;
   for (auto _ : state) {
@@ -121,8 +122,9 @@ void BM_StationThroughput(benchmark::State& state) {
     auto places = make_configured_place_recognizer(config.places);
     std::vector<AnalysisPool::Step> steps;
     for (int w = 0; w < state.range(0); ++w) {
-      auto analyzer = std::make_shared<KeyframeAnalyzer>(make_configured_text_reader(config.text),
-                                                         places.get(), config, null_logger());
+      auto analyzer = std::make_shared<KeyframeAnalyzer>(
+          make_configured_text_reader(config.text), places.get(),
+          make_configured_place_describer(config.places), config, null_logger());
       steps.push_back([analyzer](const AnalysisJob& job) { return analyzer->analyse(job); });
     }
     AnalysisPool pool(std::move(steps), jobs.size(), null_logger());

@@ -46,7 +46,7 @@ PACKAGES=(
   procps
   openssl
   iproute2 nftables
-  python3-torch python3-onnx python3-opencv python3-numpy
+  python3-torch python3-onnx python3-opencv python3-numpy python3-yaml
   python3-matplotlib
   chromium chromium-driver python3-selenium
   fonts-dejavu-core fonts-liberation2 fonts-freefont-ttf fonts-urw-base35

@@ -6,6 +6,8 @@
 #   scripts/results.sh ocr             # `keyfleet ocr eval` on the real sets (about 40 minutes)
 #   scripts/results.sh seeds           # Fig. 6 over 3 forward- and 3 side-looking streets
 #                                      # (`keyfleet eval --seeds`, about 30 minutes here)
+#   scripts/results.sh places          # place retrieval bow / cnn / fusion on the same streets
+#                                      # and vpr_corridor (`keyfleet places eval`)
 # The blocks between <!-- results:NAME:begin --> and <!-- results:NAME:end --> are replaced;
 # their plots go to docs/results/. KEYFLEET_BUILD_DIR overrides build/; KEYFLEET_EVAL_SCENARIO_DIR
 # evaluates a scenario generated before instead of generating the default one.
@@ -158,6 +160,47 @@ seeds_block() {
   echo "README results:seeds block updated"
 }
 
+places_block() {
+  local data=${KEYFLEET_DATA:-$root/../shared/data}
+  local start=$SECONDS
+  "$build/bin/keyfleet" places eval "$root/configs/eval_side.yaml" --seeds 21 22 23 \
+    --out "$root/runs/results-places-side" >&2
+  "$build/bin/keyfleet" places eval "$root/configs/eval_side.yaml" --seeds 21 22 23 \
+    --database-every 15 --out "$root/runs/results-places-side-sparse" >&2
+  "$build/bin/keyfleet" places eval "$root/configs/eval.yaml" --seeds 11 12 13 \
+    --out "$root/runs/results-places-forward" >&2
+  # 160x120 frames: far fewer ORB matches than a 640x480 keyframe, so a lower threshold.
+  local corridor=0
+  if [ -f "$data/vpr_corridor/ground_truth.csv" ]; then
+    "$build/bin/keyfleet" places eval "$root/configs/eval_side.yaml" --min-inliers 12 \
+      --corridor "$data/vpr_corridor" --out "$root/runs/results-places-corridor" >&2
+    corridor=1
+  fi
+  local took=$((SECONDS - start))
+  {
+    echo "*Measured $when on $machine (shared: times are medians of one thread and noisy),"
+    echo "\`scripts/results.sh places\` ($took s): \`keyfleet places eval\` on the streets of"
+    echo "\`scripts/results.sh seeds\` (never trained or tuned on) and the real vpr_corridor. Queries"
+    echo "as captured, with a 15 px linear motion blur at 640 px wide (random direction), and with"
+    echo "pixel values times 0.4 (dark); recall@k: a right keyframe among the first k candidates;"
+    echo "verified top-1: the keyframe VFC accepts (most inliers among the top 4) is right, over all"
+    echo "answerable queries (no answer counts as wrong).*"
+    echo
+    echo "Side-looking:"
+    echo
+    sed '/^Per view/d' "$root/runs/results-places-side/places.md"
+    echo "Side-looking, a sparser database (about the V-SLAM keyframes at 35 % density):"
+    echo
+    sed '/^Per view/d' "$root/runs/results-places-side-sparse/places.md"
+    echo "Forward-looking:"
+    echo
+    sed '/^Per view/d' "$root/runs/results-places-forward/places.md"
+    if [ "$corridor" = 1 ]; then cat "$root/runs/results-places-corridor/places.md"; else
+      grep '^Per view' "$root/runs/results-places-side/places.md"; fi
+  } | replace_block places
+  echo "README results:places block updated"
+}
+
 blocks=("$@")
 [ ${#blocks[@]} -eq 0 ] && blocks=(eval bandwidth)
 for block in "${blocks[@]}"; do
@@ -166,6 +209,7 @@ for block in "${blocks[@]}"; do
     bandwidth) bandwidth_block ;;
     ocr) ocr_block ;;
     seeds) seeds_block ;;
-    *) echo "results.sh: unknown block '$block' (eval, bandwidth, ocr, seeds)" >&2; exit 2 ;;
+    places) places_block ;;
+    *) echo "results.sh: unknown block '$block' (eval, bandwidth, ocr, seeds, places)" >&2; exit 2 ;;
   esac
 done

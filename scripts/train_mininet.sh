@@ -18,17 +18,7 @@ pairs=${PAIRS:-3000}
 model_out=${MODEL_OUT:-$work/mininet_text.onnx}
 data_root=${KEYFLEET_DATA:-$root/../shared/data}
 
-"$root/scripts/install_deps.sh"
-packages=(python3-torch python3-onnx python3-opencv python3-numpy)
-missing=()
-for p in "${packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if [ ${#missing[@]} -gt 0 ]; then
-  sudo_cmd=()
-  [ "$(id -u)" -eq 0 ] || sudo_cmd=(sudo -n)
-  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
-fi
+"$root/scripts/install_deps.sh"  # python3-torch and the rest of the recipe's packages too
 "$root/scripts/build.sh"
 keyfleet="${KEYFLEET_BUILD_DIR:-$root/build}/bin/keyfleet"
 [ -d "$data_root" ] || echo "train_mininet: no shared data at $data_root: procedural facades only"

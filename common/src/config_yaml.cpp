@@ -38,6 +38,13 @@ struct EnumNames<VerifierKind> {
       {VerifierKind::kRansacFundamental, "ransac_fundamental"}};
 };
 template <>
+struct EnumNames<PlaceRetrieval> {
+  static constexpr std::pair<PlaceRetrieval, const char*> kAll[] = {
+      {PlaceRetrieval::kBow, "bow"},
+      {PlaceRetrieval::kCnn, "cnn"},
+      {PlaceRetrieval::kFusion, "fusion"}};
+};
+template <>
 struct EnumNames<TriggerConfig::Kind> {
   static constexpr std::pair<TriggerConfig::Kind, const char*> kAll[] = {
       {TriggerConfig::Kind::kOrbSlam, "orbslam"},
@@ -95,6 +102,11 @@ std::optional<VerifierKind> verifier_kind(const std::string& name) {
   return enum_from_name<VerifierKind>(name);
 }
 std::string verifier_kind_choices() { return enum_choices<VerifierKind>(); }
+std::optional<PlaceRetrieval> place_retrieval(const std::string& name) {
+  return enum_from_name<PlaceRetrieval>(name);
+}
+std::string place_retrieval_choices() { return enum_choices<PlaceRetrieval>(); }
+std::string to_string(PlaceRetrieval retrieval) { return enum_name(retrieval); }
 std::optional<TriggerConfig::Kind> trigger_kind(const std::string& name) {
   return enum_from_name<TriggerConfig::Kind>(name);
 }
@@ -346,6 +358,9 @@ template <class V>
 void visit(V& v, PlaceRecognitionConfig& c) {
   v.field("enabled", c.enabled);
   v.field("vocabulary", c.vocabulary);
+  v.field("retrieval", c.retrieval);
+  v.field("descriptor", c.descriptor);
+  v.field("fusion_depth", c.fusion_depth, between(1, 1000));
   v.field("orb_features", c.orb_features, between(100, 20000));
   v.field("candidates", c.candidates, between(1, 100));
   v.field("min_inliers", c.min_inliers, between(4, 100000));

@@ -52,8 +52,8 @@ int run(const ProcessOptions& options) {
   std::vector<station::AnalysisPool::Step> steps;
   for (int i = 0; i < analysis_config.workers; ++i) {
     auto analyzer = std::make_shared<station::KeyframeAnalyzer>(
-        station::make_configured_text_reader(analysis_config.text), places.get(), analysis_config,
-        logger);
+        station::make_configured_text_reader(analysis_config.text), places.get(),
+        station::make_configured_place_describer(analysis_config.places), analysis_config, logger);
     steps.push_back([analyzer](const station::AnalysisJob& job) { return analyzer->analyse(job); });
   }
   station::AnalysisStore analysis_store(store.path());
@@ -64,7 +64,7 @@ int run(const ProcessOptions& options) {
       [&attempts](const station::KeyframeKey& key) { attempts.started(key); });
   station::StationAnalysis analysis(store, analysis_store, map, pool, logger);
   analysis.skip_abandoned(attempts, analysis_config.max_attempts);
-  analysis.restore(places.get());
+  analysis.restore(places.get(), analysis_config.places.retrieval != PlaceRetrieval::kBow);
 
   // The dashboard reads the database on its own threads; the pool outlives it.
   std::unique_ptr<station::web::DashboardServer> dashboard;

@@ -9,8 +9,21 @@ std::unique_ptr<PlaceRecognizer> make_configured_place_recognizer(
   if (!config.enabled) return nullptr;
   auto vocabulary = std::make_shared<const OrbVocabulary>(OrbVocabulary::load(
       vision::locate_model(config.vocabulary, "place recognition: vocabulary")));
-  return std::make_unique<OrbBowPlaceRecognizer>(std::move(vocabulary),
-                                                 make_match_verifier(config.verifier), config);
+  const int dimensions =
+      config.retrieval == PlaceRetrieval::kBow
+          ? 0
+          : vision::read_place_describer_info(
+                vision::locate_model(config.descriptor, "place recognition: descriptor model"))
+                .dimensions;
+  return std::make_unique<VerifiedPlaceRecognizer>(
+      std::move(vocabulary), make_match_verifier(config.verifier), config, dimensions);
+}
+
+std::unique_ptr<vision::PlaceDescriber> make_configured_place_describer(
+    const PlaceRecognitionConfig& config) {
+  if (!config.enabled || config.retrieval == PlaceRetrieval::kBow) return nullptr;
+  return std::make_unique<vision::DnnPlaceDescriber>(
+      vision::locate_model(config.descriptor, "place recognition: descriptor model"));
 }
 
 std::unique_ptr<TextReader> make_configured_text_reader(const TextReadingConfig& config) {

@@ -30,6 +30,13 @@ CREATE TABLE IF NOT EXISTS keyframe_features (
   descriptors BLOB NOT NULL,
   PRIMARY KEY (robot_id, sequence_number)
 );
+CREATE TABLE IF NOT EXISTS keyframe_descriptors (
+  robot_id TEXT NOT NULL,
+  sequence_number INTEGER NOT NULL,
+  dimensions INTEGER NOT NULL,
+  descriptor BLOB NOT NULL,
+  PRIMARY KEY (robot_id, sequence_number)
+);
 CREATE TABLE IF NOT EXISTS words (
   word_id INTEGER PRIMARY KEY,
   robot_id TEXT NOT NULL,
@@ -150,6 +157,18 @@ void AnalysisStore::save(const AnalysisResult& r) {
             .bind(5, pack_descriptors(r.features->descriptors))
             .step();
       }
+      if (!r.descriptor.empty()) {
+        std::vector<std::uint8_t> bytes(r.descriptor.size() * sizeof(float));
+        std::memcpy(bytes.data(), r.descriptor.data(), bytes.size());
+        db_.prepare(
+               "INSERT OR REPLACE INTO keyframe_descriptors(robot_id, sequence_number, "
+               "dimensions, descriptor) VALUES(?,?,?,?)")
+            .bind(1, r.key.robot_id)
+            .bind(2, seq)
+            .bind(3, static_cast<std::int64_t>(r.descriptor.size()))
+            .bind(4, bytes)
+            .step();
+      }
       if (r.place) {
         db_.prepare(
                "INSERT OR REPLACE INTO place_matches(robot_id, sequence_number, match_robot_id, "
@@ -245,10 +264,22 @@ std::vector<StoredPlaceMatch> AnalysisStore::place_matches() const {
 }
 
 std::vector<AnalysisStore::StoredFeatures> AnalysisStore::features() const {
+  // A database written before place descriptors were stored (opened read-only) lacks their
+  // table: its keyframes come without descriptors.
+  auto has_descriptors =
+      db_.prepare("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = ?");
+  has_descriptors.bind(1, std::string("keyframe_descriptors"));
+  const std::string descriptors =
+      has_descriptors.step()
+          ? "d.dimensions, d.descriptor FROM keyframe_features f LEFT JOIN keyframe_descriptors d "
+            "ON d.robot_id = f.robot_id AND d.sequence_number = f.sequence_number"
+          : "0, NULL FROM keyframe_features f";
   auto query = db_.prepare(
       "SELECT f.robot_id, f.sequence_number, a.capture_time_ns, f.count, f.keypoints, "
-      "f.descriptors FROM keyframe_features f JOIN keyframe_analysis a ON a.robot_id = "
-      "f.robot_id AND a.sequence_number = f.sequence_number WHERE a.status = 'done' "
+      "f.descriptors, " +
+      descriptors +
+      " JOIN keyframe_analysis a ON a.robot_id = f.robot_id "
+      "AND a.sequence_number = f.sequence_number WHERE a.status = 'done' "
       "ORDER BY a.analysed_order");
   std::vector<StoredFeatures> out;
   while (query.step()) {
@@ -264,6 +295,12 @@ std::vector<AnalysisStore::StoredFeatures> AnalysisStore::features() const {
       std::memcpy(f.features.descriptors.data, descriptors.data(), descriptors.size());
     } else {
       f.features.keypoints.clear();
+    }
+    const std::vector<std::uint8_t> descriptor = query.blob(7);
+    const auto dimensions = static_cast<std::size_t>(std::max<std::int64_t>(0, query.int64(6)));
+    if (dimensions > 0 && descriptor.size() == dimensions * sizeof(float)) {
+      f.descriptor.resize(dimensions);
+      std::memcpy(f.descriptor.data(), descriptor.data(), descriptor.size());
     }
     out.push_back(std::move(f));
   }

@@ -22,8 +22,13 @@ std::vector<cv::Rect> hint_rects(const std::vector<TextRegion>& regions) {
 }  // namespace
 
 KeyframeAnalyzer::KeyframeAnalyzer(std::unique_ptr<TextReader> reader, PlaceRecognizer* places,
+                                   std::unique_ptr<vision::PlaceDescriber> describer,
                                    const AnalysisConfig& config, Logger logger)
-    : reader_(std::move(reader)), places_(places), config_(config), logger_(std::move(logger)) {
+    : reader_(std::move(reader)),
+      places_(places),
+      describer_(std::move(describer)),
+      config_(config),
+      logger_(std::move(logger)) {
   orb_.features = config.places.orb_features;
 }
 
@@ -42,14 +47,16 @@ AnalysisResult KeyframeAnalyzer::analyse(const AnalysisJob& job) {
     const auto start = std::chrono::steady_clock::now();
     cv::Mat grey;
     cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
-    OrbFeatures features = extract_orb(grey, orb_);
+    PlaceView view{extract_orb(grey, orb_), {}};
+    if (describer_) view.descriptor = describer_->describe(image);
     const PlaceOutcome outcome =
-        places_->recognise(features, not_a_recent_neighbour(job.key, job.capture_time_ns,
-                                                            config_.places.same_robot_exclusion_s));
+        places_->recognise(view, not_a_recent_neighbour(job.key, job.capture_time_ns,
+                                                        config_.places.same_robot_exclusion_s));
     result.place = outcome.best;
     result.candidates_checked = outcome.checked.size();
-    places_->add(job.key, job.capture_time_ns, features);
-    result.features = std::move(features);
+    places_->add(job.key, job.capture_time_ns, view);
+    result.features = std::move(view.features);
+    result.descriptor = std::move(view.descriptor);
     result.places_ms = elapsed_ms(start);
   }
   if (reader_) {

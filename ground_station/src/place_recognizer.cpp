@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <mutex>
 
 #include "keyfleet/station/places/bow_matching.hpp"
@@ -17,18 +18,79 @@ PlaceFilter not_a_recent_neighbour(const KeyframeKey& query, std::int64_t captur
   };
 }
 
-OrbBowPlaceRecognizer::OrbBowPlaceRecognizer(std::shared_ptr<const OrbVocabulary> vocabulary,
-                                             std::unique_ptr<MatchVerifier> verifier,
-                                             const PlaceRecognitionConfig& config)
-    : vocabulary_(std::move(vocabulary)), verifier_(std::move(verifier)), config_(config) {}
+std::vector<std::uint32_t> fuse_ranks(const std::vector<std::uint32_t>& first,
+                                      const std::vector<std::uint32_t>& second) {
+  std::map<std::uint32_t, double> score;
+  for (const auto* list : {&first, &second})
+    for (std::size_t r = 0; r < list->size(); ++r)
+      score[(*list)[r]] += 1.0 / (kFusionRankOffset + double(r + 1));
+  std::vector<std::pair<std::uint32_t, double>> ranked(score.begin(), score.end());
+  std::stable_sort(ranked.begin(), ranked.end(),
+                   [](const auto& a, const auto& b) { return a.second > b.second; });
+  std::vector<std::uint32_t> out;
+  out.reserve(ranked.size());
+  for (const auto& [entry, s] : ranked) out.push_back(entry);
+  return out;
+}
 
-PlaceMatch OrbBowPlaceRecognizer::verify(const OrbFeatures& query,
-                                         const FeatureVector& query_direct, std::uint32_t entry,
-                                         double bow_score) const {
+VerifiedPlaceRecognizer::VerifiedPlaceRecognizer(std::shared_ptr<const OrbVocabulary> vocabulary,
+                                                 std::unique_ptr<MatchVerifier> verifier,
+                                                 const PlaceRecognitionConfig& config,
+                                                 int descriptor_dimensions)
+    : vocabulary_(std::move(vocabulary)), verifier_(std::move(verifier)), config_(config) {
+  if (uses_descriptors()) descriptors_.emplace(descriptor_dimensions);
+}
+
+VerifiedPlaceRecognizer::Ranked VerifiedPlaceRecognizer::rank(const PlaceView& view,
+                                                              const BowVector& bow,
+                                                              std::size_t max_results,
+                                                              const PlaceFilter& filter) const {
+  const auto accept = [&](std::uint32_t entry) {
+    return !filter || filter(entries_[entry].key, entries_[entry].capture_time_ns);
+  };
+  const bool fusion = config_.retrieval == PlaceRetrieval::kFusion;
+  const std::size_t depth =
+      fusion ? std::max(max_results, static_cast<std::size_t>(config_.fusion_depth)) : max_results;
+  std::map<std::uint32_t, double> bow_scores, similarities;
+  std::vector<std::uint32_t> by_bow, by_descriptor;
+  if (config_.retrieval != PlaceRetrieval::kCnn && !bow.empty()) {
+    for (const BowMatch& m : database_.query(bow, depth, accept)) {
+      by_bow.push_back(m.entry);
+      bow_scores[m.entry] = m.score;
+    }
+  }
+  const bool has_descriptor =
+      descriptors_ &&
+      view.descriptor.size() == static_cast<std::size_t>(descriptors_->dimensions());
+  if (uses_descriptors() && has_descriptor) {
+    const auto described = [&](std::uint32_t entry) {
+      return has_descriptor_[entry] && accept(entry);
+    };
+    for (const DescriptorMatch& m : descriptors_->query(view.descriptor, depth, described)) {
+      by_descriptor.push_back(m.entry);
+      similarities[m.entry] = m.similarity;
+    }
+  }
+  Ranked ranked;
+  switch (config_.retrieval) {
+    case PlaceRetrieval::kBow: ranked.entries = by_bow; break;
+    case PlaceRetrieval::kCnn: ranked.entries = by_descriptor; break;
+    case PlaceRetrieval::kFusion: ranked.entries = fuse_ranks(by_bow, by_descriptor); break;
+  }
+  if (ranked.entries.size() > max_results) ranked.entries.resize(max_results);
+  for (std::uint32_t e : ranked.entries) {
+    ranked.bow_scores.push_back(bow_scores.count(e) ? bow_scores[e] : 0.0);
+    ranked.similarities.push_back(similarities.count(e) ? similarities[e] : 0.0);
+  }
+  return ranked;
+}
+
+PlaceMatch VerifiedPlaceRecognizer::verify(const OrbFeatures& query,
+                                           const FeatureVector& query_direct,
+                                           std::uint32_t entry) const {
   const Entry& candidate = entries_[entry];
   PlaceMatch match;
   match.other = candidate.key;
-  match.bow_score = bow_score;
   const std::vector<cv::DMatch> pairs =
       match_with_direct_index(query.descriptors, query_direct, candidate.features.descriptors,
                               database_.direct_index(entry));
@@ -45,19 +107,22 @@ PlaceMatch OrbBowPlaceRecognizer::verify(const OrbFeatures& query,
   return match;
 }
 
-PlaceOutcome OrbBowPlaceRecognizer::recognise(const OrbFeatures& features,
-                                              const PlaceFilter& filter) const {
+PlaceOutcome VerifiedPlaceRecognizer::recognise(const PlaceView& view,
+                                                const PlaceFilter& filter) const {
   PlaceOutcome outcome;
-  if (features.descriptors.empty()) return outcome;
   FeatureVector direct;
-  const BowVector bow = vocabulary_->transform(features.descriptors, &direct);
+  const BowVector bow = view.features.descriptors.empty()
+                            ? BowVector{}
+                            : vocabulary_->transform(view.features.descriptors, &direct);
   std::shared_lock lock(mutex_);
-  const auto accept = [&](std::uint32_t entry) {
-    return !filter || filter(entries_[entry].key, entries_[entry].capture_time_ns);
-  };
-  for (const BowMatch& candidate :
-       database_.query(bow, static_cast<std::size_t>(config_.candidates), accept)) {
-    PlaceMatch match = verify(features, direct, candidate.entry, candidate.score);
+  const Ranked ranked = rank(view, bow, static_cast<std::size_t>(config_.candidates), filter);
+  for (std::size_t i = 0; i < ranked.entries.size(); ++i) {
+    PlaceMatch match = view.features.descriptors.empty()
+                           ? PlaceMatch{}
+                           : verify(view.features, direct, ranked.entries[i]);
+    match.other = entries_[ranked.entries[i]].key;
+    match.bow_score = ranked.bow_scores[i];
+    match.descriptor_similarity = ranked.similarities[i];
     const bool accepted = match.inliers > static_cast<std::size_t>(config_.min_inliers) &&
                           match.inlier_ratio() > config_.min_inlier_ratio;
     if (accepted && (!outcome.best || match.inliers > outcome.best->inliers)) outcome.best = match;
@@ -66,18 +131,43 @@ PlaceOutcome OrbBowPlaceRecognizer::recognise(const OrbFeatures& features,
   return outcome;
 }
 
-void OrbBowPlaceRecognizer::add(const KeyframeKey& key, std::int64_t capture_time_ns,
-                                const OrbFeatures& features) {
-  FeatureVector direct;
-  const BowVector bow = vocabulary_->transform(features.descriptors, &direct);
-  std::unique_lock lock(mutex_);
-  database_.add(bow, std::move(direct));  // entry ids count up from 0, like entries_
-  entries_.push_back(Entry{key, capture_time_ns, features});
+std::vector<KeyframeKey> VerifiedPlaceRecognizer::retrieve(const PlaceView& view,
+                                                           std::size_t max_results,
+                                                           const PlaceFilter& filter) const {
+  const BowVector bow = view.features.descriptors.empty()
+                            ? BowVector{}
+                            : vocabulary_->transform(view.features.descriptors);
+  std::shared_lock lock(mutex_);
+  std::vector<KeyframeKey> keys;
+  for (std::uint32_t e : rank(view, bow, max_results, filter).entries)
+    keys.push_back(entries_[e].key);
+  return keys;
 }
 
-std::size_t OrbBowPlaceRecognizer::size() const {
+void VerifiedPlaceRecognizer::add(const KeyframeKey& key, std::int64_t capture_time_ns,
+                                  const PlaceView& view) {
+  FeatureVector direct;
+  const BowVector bow = vocabulary_->transform(view.features.descriptors, &direct);
+  std::unique_lock lock(mutex_);
+  database_.add(bow, std::move(direct));  // entry ids count up from 0, like entries_
+  if (descriptors_) {
+    const auto dimensions = static_cast<std::size_t>(descriptors_->dimensions());
+    const bool described = view.descriptor.size() == dimensions;
+    descriptors_->add(described ? view.descriptor : std::vector<float>(dimensions, 0.0f));
+    has_descriptor_.push_back(described);
+    if (!described) ++missing_descriptors_;
+  }
+  entries_.push_back(Entry{key, capture_time_ns, view.features});
+}
+
+std::size_t VerifiedPlaceRecognizer::size() const {
   std::shared_lock lock(mutex_);
   return entries_.size();
+}
+
+std::size_t VerifiedPlaceRecognizer::missing_descriptors() const {
+  std::shared_lock lock(mutex_);
+  return missing_descriptors_;
 }
 
 }  // namespace keyfleet::station

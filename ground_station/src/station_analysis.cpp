@@ -36,23 +36,30 @@ std::size_t rebuild_map(const KeyframeStore& keyframes, const AnalysisStore& sto
   return words.size();
 }
 
-std::size_t rebuild_place_index(const AnalysisStore& store, PlaceRecognizer& places) {
-  std::size_t indexed = 0;
+PlaceIndexRebuild rebuild_place_index(const AnalysisStore& store, PlaceRecognizer& places) {
+  PlaceIndexRebuild rebuild;
   for (const auto& f : store.features()) {
-    places.add(f.key, f.capture_time_ns, f.features);
-    ++indexed;
+    places.add(f.key, f.capture_time_ns, PlaceView{f.features, f.descriptor});
+    ++rebuild.indexed;
+    if (f.descriptor.empty()) ++rebuild.without_descriptor;
   }
-  return indexed;
+  return rebuild;
 }
 
-void StationAnalysis::restore(PlaceRecognizer* places) {
+void StationAnalysis::restore(PlaceRecognizer* places, bool descriptors_expected) {
   const std::size_t words = rebuild_map(keyframes_, store_, map_);
-  const std::size_t indexed = places ? rebuild_place_index(store_, *places) : 0;
+  const PlaceIndexRebuild index =
+      places ? rebuild_place_index(store_, *places) : PlaceIndexRebuild{};
   backlog_ = true;
   if (map_.node_count() > 0) {
     logger_->info("restored {} keyframe(s), {} word(s), {} place match(es) and {} indexed place(s)",
-                  map_.node_count(), words, map_.place_matches().size(), indexed);
+                  map_.node_count(), words, map_.place_matches().size(), index.indexed);
   }
+  if (index.without_descriptor > 0 && descriptors_expected)
+    logger_->warn(
+        "{} of the restored places have no stored descriptor (analysed with bow "
+        "retrieval): only the bag of words retrieves them",
+        index.without_descriptor);
 }
 
 std::size_t StationAnalysis::skip_abandoned(const AnalysisAttempts& attempts, int max_attempts) {

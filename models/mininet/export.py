@@ -18,6 +18,7 @@ import argparse
 import datetime
 import json
 import os
+import sys
 
 import cv2
 import numpy as np
@@ -27,22 +28,8 @@ from onnx import numpy_helper
 
 from mininet import MiniNet, count_flops, count_parameters
 
-
-def fold_identities(model):
-    initializers = {i.name for i in model.graph.initializer}
-    rename = {}
-    kept = []
-    for node in model.graph.node:
-        if node.op_type == "Identity" and node.input[0] in initializers:
-            rename[node.output[0]] = node.input[0]
-        else:
-            kept.append(node)
-    for node in kept:
-        for i, name in enumerate(node.input):
-            node.input[i] = rename.get(name, name)
-    del model.graph.node[:]
-    model.graph.node.extend(kept)
-    return len(rename)
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from onnx_graph import fold_identities  # noqa: E402
 
 
 def _attribute(node, name, default):

@@ -58,8 +58,16 @@ query_every: 5
   std::ifstream in(out / "results.json");
   const auto j = nlohmann::json::parse(in);
   ASSERT_EQ(j["summary"].size(), 4u);
-  EXPECT_EQ(j["words"].size(), 8u);   // 2 drones x 2 strategies x 2 densities
-  EXPECT_EQ(j["places"].size(), 8u);  // 2 ordered pairs x 2 x 2
+  EXPECT_EQ(j["words"].size(), 8u);    // 2 drones x 2 strategies x 2 densities
+  EXPECT_EQ(j["places"].size(), 24u);  // 2 ordered pairs x 2 x 2, per retrieval (bow, cnn, fusion)
+  ASSERT_EQ(r.summary_by_retrieval.size(), 3u);
+  for (const char* mode : {"bow", "cnn", "fusion"}) {
+    ASSERT_EQ(r.summary_by_retrieval.at(mode).size(), 4u) << mode;
+    for (const auto& p : r.summary_by_retrieval.at(mode)) {
+      EXPECT_LE(p.topk.top1, p.topk.top5) << mode;
+      EXPECT_EQ(p.topk.queries, r.summary.front().topk.queries) << mode;  // the same queries
+    }
+  }
 
   ASSERT_EQ(r.summary.size(), 4u);
   for (const auto& p : r.summary) {

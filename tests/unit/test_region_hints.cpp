@@ -303,8 +303,8 @@ TEST(ReadingWithHints, TheAnalysisHandsTheStoredRegionsToTheReader) {
   std::vector<std::vector<cv::Rect>> hints;
   AnalysisConfig config;
   config.places.enabled = false;
-  station::KeyframeAnalyzer analyzer(std::make_unique<HintRecordingReader>(&hints), nullptr, config,
-                                     null_logger());
+  station::KeyframeAnalyzer analyzer(std::make_unique<HintRecordingReader>(&hints), nullptr,
+                                     nullptr, config, null_logger());
   Keyframe k = test::make_valid_keyframe("drone_0", 0);
   k.text_regions = {{1, 2, 30, 4}, {5, 6, 7, 8}};
   const auto result = analyzer.analyse(station::job_for(k));

@@ -189,7 +189,7 @@ TEST_F(AnalysisStoreTest, FeaturesAndPlaceMatchesRoundTrip) {
   features.descriptors = cv::Mat(2, 32, CV_8U);
   cv::randu(features.descriptors, 0, 256);
   r.features = features;
-  r.place = PlaceMatch{{"drone_0", 1}, 0.31, 120, 64};
+  r.place = PlaceMatch{{"drone_0", 1}, 0.31, 120, 64, 0.0};
   store_.save(r);
 
   const auto stored = store_.features();
@@ -217,20 +217,30 @@ class ScriptedReader : public TextReader {
 
 class FirstOfOtherRobot : public PlaceRecognizer {
  public:
-  PlaceOutcome recognise(const OrbFeatures&, const PlaceFilter& filter) const override {
-    std::lock_guard lock(mutex_);
+  PlaceOutcome recognise(const PlaceView& view, const PlaceFilter& filter) const override {
     PlaceOutcome outcome;
-    for (const auto& [key, time] : added_) {
-      if (filter && !filter(key, time)) continue;
-      outcome.best = PlaceMatch{key, 0.5, 100, 60};
+    for (const KeyframeKey& key : retrieve(view, 1, filter)) {
+      outcome.best = PlaceMatch{key, 0.5, 100, 60, 0.0};
       outcome.checked.push_back(*outcome.best);
-      break;
     }
     return outcome;
   }
-  void add(const KeyframeKey& key, std::int64_t time, const OrbFeatures&) override {
+  std::vector<KeyframeKey> retrieve(const PlaceView&, std::size_t max_results,
+                                    const PlaceFilter& filter) const override {
+    std::lock_guard lock(mutex_);
+    std::vector<KeyframeKey> keys;
+    for (const auto& [key, time] : added_)
+      if ((!filter || filter(key, time)) && keys.size() < max_results) keys.push_back(key);
+    return keys;
+  }
+  void add(const KeyframeKey& key, std::int64_t time, const PlaceView& view) override {
     std::lock_guard lock(mutex_);
     added_.emplace_back(key, time);
+    if (view.descriptor == std::vector<float>{0.6f, 0.8f}) ++described_;
+  }
+  std::size_t described() const {
+    std::lock_guard lock(mutex_);
+    return described_;
   }
   std::size_t size() const override {
     std::lock_guard lock(mutex_);
@@ -240,6 +250,16 @@ class FirstOfOtherRobot : public PlaceRecognizer {
  private:
   mutable std::mutex mutex_;
   std::vector<std::pair<KeyframeKey, std::int64_t>> added_;
+  std::size_t described_ = 0;  // views that came with ConstantDescriber's descriptor
+};
+
+class ConstantDescriber : public vision::PlaceDescriber {
+ public:
+  std::vector<float> describe(const cv::Mat&) override { return {0.6f, 0.8f}; }
+  const vision::PlaceDescriberInfo& info() const override { return info_; }
+
+ private:
+  vision::PlaceDescriberInfo info_{{160, 120}, 1.0, {}, 2, "constant"};
 };
 
 TEST_F(AnalysisStoreTest, StationAnalysisFeedsTheMapAndARestartRestoresIt) {
@@ -247,7 +267,8 @@ TEST_F(AnalysisStoreTest, StationAnalysisFeedsTheMapAndARestartRestoresIt) {
   config.places.same_robot_exclusion_s = 1e6;  // only other robots count as revisits
   FirstOfOtherRobot places;
   {
-    KeyframeAnalyzer analyzer(std::make_unique<ScriptedReader>(), &places, config, null_logger());
+    KeyframeAnalyzer analyzer(std::make_unique<ScriptedReader>(), &places,
+                              std::make_unique<ConstantDescriber>(), config, null_logger());
     AnalysisPool pool({[&](const AnalysisJob& j) { return analyzer.analyse(j); }}, 16,
                       null_logger());
     TopoMap map;
@@ -277,6 +298,7 @@ TEST_F(AnalysisStoreTest, StationAnalysisFeedsTheMapAndARestartRestoresIt) {
   EXPECT_EQ(map.cross_robot_match_count(), 1u);
   EXPECT_EQ(map.nodes_with_word("hotel").size(), 3u);
   EXPECT_EQ(restarted_places.size(), 3u);  // the ORB features stored by the first run
+  EXPECT_EQ(restarted_places.described(), 3u);  // and the place descriptors
 }
 
 // A station's analysis over the fixture's database whose engines only count their calls; it has

@@ -26,6 +26,7 @@ void add_station_commands(CLI::App& app);
 void add_vocabulary_commands(CLI::App& app);
 void add_experiment_commands(CLI::App& app);
 void add_eval_commands(CLI::App& app);
+void add_places_commands(CLI::App& app);
 void add_ocr_commands(CLI::App& app);
 void add_segmenter_commands(CLI::App& app);
 void add_security_commands(CLI::App& app);

@@ -194,6 +194,7 @@ int main(int argc, char** argv) {
   keyfleet::commands::add_vocabulary_commands(app);
   keyfleet::commands::add_experiment_commands(app);
   keyfleet::commands::add_eval_commands(app);
+  keyfleet::commands::add_places_commands(app);
 
   CLI11_PARSE(app, argc, argv);
   try {

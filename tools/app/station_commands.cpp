@@ -137,6 +137,7 @@ struct LocateOptions {
   std::string image;
   std::string run;
   std::string vocabulary;
+  std::string retrieval;
 };
 
 void locate(const LocateOptions& o) {
@@ -144,19 +145,43 @@ void locate(const LocateOptions& o) {
   StationConfig config = run_station_config(dir);
   config.analysis.places.enabled = true;
   if (!o.vocabulary.empty()) config.analysis.places.vocabulary = o.vocabulary;
+  if (!o.retrieval.empty()) {
+    const auto retrieval = place_retrieval(o.retrieval);
+    if (!retrieval)
+      throw StartupError("--retrieval " + o.retrieval + ": must be one of " +
+                         place_retrieval_choices());
+    config.analysis.places.retrieval = *retrieval;
+  }
   const cv::Mat image = cv::imread(o.image, cv::IMREAD_COLOR);
   if (image.empty()) throw StartupError("cannot read image " + o.image);
-  auto places = station::make_configured_place_recognizer(config.analysis.places);
+  PlaceRecognitionConfig& settings = config.analysis.places;
   LoadedMap loaded(dir);
-  const std::size_t indexed = station::rebuild_place_index(loaded.analysis, *places);
+  auto places = station::make_configured_place_recognizer(settings);
+  station::PlaceIndexRebuild index = station::rebuild_place_index(loaded.analysis, *places);
+  if (settings.retrieval != PlaceRetrieval::kBow && index.indexed > 0 &&
+      index.without_descriptor == index.indexed) {
+    std::cout << "no keyframe of this run has a stored place descriptor (analysed with bow "
+                 "retrieval): retrieving by the bag of words\n";
+    settings.retrieval = PlaceRetrieval::kBow;
+    places = station::make_configured_place_recognizer(settings);
+    index = station::rebuild_place_index(loaded.analysis, *places);
+  }
   station::OrbParams orb;
-  orb.features = config.analysis.places.orb_features;
-  const station::PlaceOutcome outcome = places->recognise(station::extract_orb(image, orb), {});
-  std::cout << "checked " << outcome.checked.size() << " candidate(s) of " << indexed
-            << " indexed keyframe(s)\n";
+  orb.features = settings.orb_features;
+  station::PlaceView view{station::extract_orb(image, orb), {}};
+  if (auto describer = station::make_configured_place_describer(settings))
+    view.descriptor = describer->describe(image);
+  const station::PlaceOutcome outcome = places->recognise(view, {});
+  std::cout << "retrieval " << to_string(settings.retrieval) << ": checked "
+            << outcome.checked.size() << " candidate(s) of " << index.indexed
+            << " indexed keyframe(s)";
+  if (settings.retrieval != PlaceRetrieval::kBow && index.without_descriptor > 0)
+    std::cout << " (" << index.without_descriptor << " without a stored descriptor)";
+  std::cout << "\n";
   for (const auto& c : outcome.checked) {
     std::cout << "  " << station::to_string(c.other) << "  bow " << std::setprecision(3)
-              << c.bow_score << "  inliers " << c.inliers << "/" << c.matches << "\n";
+              << c.bow_score << "  cosine " << c.descriptor_similarity << "  inliers " << c.inliers
+              << "/" << c.matches << "\n";
   }
   if (!outcome.best) {
     std::cout << "not located: no candidate passed verification (more than "
@@ -265,6 +290,8 @@ void add_station_commands(CLI::App& app) {
   locate_cmd->add_option("--run", options->run, "station folder or mission run folder")->required();
   locate_cmd->add_option("--vocabulary", options->vocabulary,
                          "vocabulary file (default: the run's station configuration)");
+  locate_cmd->add_option("--retrieval", options->retrieval,
+                         "bow, cnn or fusion (default: the run's station configuration)");
   locate_cmd->callback([options] { run_reporting([&] { locate(*options); }); });
 
   add_map_commands(app);

@@ -20,4 +20,19 @@ std::string locate_model(const std::string& configured, const std::string& what)
                      ")");
 }
 
+cv::dnn::Net load_onnx_network(const std::string& path, const std::string& what) {
+  if (!std::filesystem::is_regular_file(path))
+    throw StartupError(what + ": model file " + path + " does not exist");
+  cv::dnn::Net net;
+  try {
+    net = cv::dnn::readNetFromONNX(path);
+  } catch (const cv::Exception& e) {
+    throw StartupError(what + ": cannot load " + path + " (corrupt or not ONNX): " + e.what());
+  }
+  if (net.empty()) throw StartupError(what + ": " + path + " holds no network");
+  net.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);
+  net.setPreferableTarget(cv::dnn::DNN_TARGET_CPU);
+  return net;
+}
+
 }  // namespace keyfleet::vision

@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/vision/model_files.hpp"
 
 namespace keyfleet::vision {
 
@@ -50,20 +51,10 @@ DnnTextSegmenter::DnnTextSegmenter(const std::string& model_path, int threads,
                                    std::optional<cv::Size> input_size, DnnLayers layers)
     : info_(read_segmenter_info(model_path)) {
   if (input_size) info_.input_size = *input_size;
-  if (!std::filesystem::is_regular_file(model_path))
-    throw StartupError("segmenter: model file " + model_path + " does not exist");
   // OpenCV creates the layers while importing and on the first forward pass (the probe below).
   std::optional<DnnLayersScope> stand_ins;
   if (layers.any()) stand_ins.emplace(layers);
-  try {
-    net_ = cv::dnn::readNetFromONNX(model_path);
-  } catch (const cv::Exception& e) {
-    throw StartupError("segmenter: cannot load " + model_path +
-                       " (corrupt or not ONNX): " + e.what());
-  }
-  if (net_.empty()) throw StartupError("segmenter: " + model_path + " holds no network");
-  net_.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);
-  net_.setPreferableTarget(cv::dnn::DNN_TARGET_CPU);
+  net_ = load_onnx_network(model_path, "segmenter");
   if (threads > 0) cv::setNumThreads(threads);
   std::vector<cv::Mat> probe;
   try {

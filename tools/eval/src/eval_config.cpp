@@ -25,6 +25,13 @@ void visit(V& v, EvalConfig& c) {
   v.section("codec", c.codec);
   v.field("vocabulary", c.vocabulary);
   v.field("orb_features", c.orb_features, between(100, 20000));
+  v.field("place_retrievals", c.place_retrievals,
+          Check<std::vector<std::string>>([](const std::vector<std::string>& names) {
+            for (const auto& name : names)
+              if (!place_retrieval(name)) return "each must be one of " + place_retrieval_choices();
+            return names.empty() ? std::string("must not be empty") : std::string();
+          }));
+  v.field("place_descriptor", c.place_descriptor);
   v.field("query_every", c.query_every, between(1, 100000));
   v.field("place_tolerance_m", c.place_tolerance_m, between(0.01, 10000.0));
   v.field("ocr_threads", c.ocr_threads, between(1, 64));

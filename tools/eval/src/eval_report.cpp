@@ -126,8 +126,12 @@ std::string report(const EvalResults& r) {
   md << "Scenario `" << r.scenario_name << "` (seed " << r.scenario_seed << ", " << r.scenario_dir
      << "): ";
   for (std::size_t i = 0; i < r.drones.size(); ++i) md << (i ? ", " : "") << r.drones[i];
-  md << ". Text reader: `" << r.text_reader << "`. Place recognition: ORB bag of words with `"
-     << fs::path(r.vocabulary).filename().string() << "`, queries every " << r.query_every
+  md << ". Text reader: `" << r.text_reader
+     << "`. Place recognition (the table and plot; other "
+        "modes below): `"
+     << (r.place_retrievals.empty() ? std::string("bow") : r.place_retrievals.front())
+     << "` retrieval, ORB with `" << fs::path(r.vocabulary).filename().string()
+     << "`, queries every " << r.query_every
      << "th frame of one drone against the selected keyframes of each drone of the other day, "
      << "right when the retrieved keyframe looks at a street point within " << r.place_tolerance_m
      << " m of the query's. JPEG quality " << r.jpeg_quality
@@ -153,6 +157,16 @@ std::string report(const EvalResults& r) {
     return format("%.3f / %.3f (%zu q)", p.topk.top1_rate(), p.topk.top5_rate(), p.topk.queries);
   });
   md << "\n![Fig. 6b](fig6b_places.png)\n\n";
+  for (std::size_t m = 1; m < r.place_retrievals.size(); ++m) {
+    const std::string& mode = r.place_retrievals[m];
+    EvalResults other = r;
+    other.summary = r.summary_by_retrieval.at(mode);
+    md << "With `" << mode << "` retrieval (top-1 / top-5, the same queries):\n\n";
+    md << table(other, "kept", [](const PointSummary& p) {
+      return format("%.3f / %.3f", p.topk.top1_rate(), p.topk.top5_rate());
+    });
+    md << "\n";
+  }
 
   md << "## (c) Bytes sent\n\n";
   md << table(r, "kept", [](const PointSummary& p) { return format("%.2f MB", p.bytes / 1e6); });
@@ -228,6 +242,7 @@ void write_results(const EvalResults& r, const std::string& out_dir) {
     j["places"].push_back({{"query_drone", p.query_drone},
                            {"database_drone", p.database_drone},
                            {"strategy", p.strategy},
+                           {"retrieval", p.retrieval},
                            {"density", p.density},
                            {"database_keyframes", p.database_keyframes},
                            {"queries", p.topk.queries},

@@ -17,11 +17,14 @@
 #include "keyfleet/eval/selection_eval.hpp"
 #include "keyfleet/scenario/scenario_generator.hpp"
 #include "keyfleet/station/analysis_setup.hpp"
+#include "keyfleet/station/geometry/match_verifier.hpp"
+#include "keyfleet/station/place_recognizer.hpp"
 #include "keyfleet/station/places/bow_database.hpp"
 #include "keyfleet/station/places/orb_extractor.hpp"
 #include "keyfleet/station/places/orb_vocabulary.hpp"
 #include "keyfleet/station/text/text_reader.hpp"
 #include "keyfleet/vision/model_files.hpp"
+#include "keyfleet/vision/place_describer.hpp"
 
 namespace keyfleet::eval {
 namespace {
@@ -39,7 +42,7 @@ struct DroneRun {
   std::vector<double> positions;  // street position of every frame
   // [strategy][density] -> the selected frames
   std::vector<std::vector<std::vector<std::uint64_t>>> selected;
-  std::map<std::uint64_t, station::BowVector> bows;  // queries and selected frames
+  std::map<std::uint64_t, station::PlaceView> views;  // queries and selected frames
   std::vector<std::uint64_t> queries;
 };
 
@@ -129,7 +132,9 @@ struct Context {
   Logger logger;
   std::vector<SelectorConfig::Strategy> strategies;
   std::string model;  // empty when no strategy needs MiniNet
-  station::OrbVocabulary vocabulary;
+  std::shared_ptr<const station::OrbVocabulary> vocabulary;
+  std::vector<PlaceRetrieval> retrievals;
+  std::string descriptor_model;  // empty when no retrieval needs the descriptor
   station::OrbParams orb;
   JpegCodec codec;
   std::size_t drones = 0;
@@ -195,10 +200,15 @@ DroneRun evaluate_drone(const Context& ctx, const std::string& drone, EvalResult
     run.queries.push_back(f);
   std::set<std::uint64_t> to_describe(distinct);
   to_describe.insert(run.queries.begin(), run.queries.end());
+  std::unique_ptr<vision::DnnPlaceDescriber> describer;
+  if (!ctx.descriptor_model.empty())
+    describer = std::make_unique<vision::DnnPlaceDescriber>(ctx.descriptor_model);
   const auto orb_start = SteadyClock::now();
-  for (auto f : to_describe)
-    run.bows[f] =
-        ctx.vocabulary.transform(station::extract_orb(d.frames[f].image, ctx.orb).descriptors);
+  for (auto f : to_describe) {
+    station::PlaceView& view = run.views[f];
+    view.features = station::extract_orb(d.frames[f].image, ctx.orb);
+    if (describer) view.descriptor = describer->describe(d.frames[f].image);
+  }
   cost.orb_ms += seconds_since(orb_start) * 1e3;
   cost.orb_frames += to_describe.size();
 
@@ -228,33 +238,44 @@ DroneRun evaluate_drone(const Context& ctx, const std::string& drone, EvalResult
   return run;
 }
 
-// Queries from `q` against the keyframes `db` selected at each strategy and density.
-void score_places(const EvalConfig& config, const DroneRun& q, const DroneRun& db,
+// Queries from `q` against the keyframes `db` selected at each strategy and density, with each
+// retrieval mode: the candidates the station would verify, ranked as it ranks them.
+void score_places(const Context& ctx, const DroneRun& q, const DroneRun& db,
                   std::vector<PlaceScore>& out) {
-  for (std::size_t s = 0; s < db.selected.size(); ++s)
-    for (std::size_t k = 0; k < config.densities.size(); ++k) {
-      const auto& keyframes = db.selected[s][k];
-      station::BowDatabase database;
-      for (auto f : keyframes) database.add(db.bows.at(f), {});
-      PlaceScore p;
-      p.query_drone = q.info.robot_id;
-      p.database_drone = db.info.robot_id;
-      p.strategy = config.strategies[s];
-      p.density = config.densities[k];
-      p.database_keyframes = keyframes.size();
-      for (auto f : q.queries) {
-        const double at = q.positions[f];
-        if (!answerable(at, db.positions, config.place_tolerance_m)) {
-          ++p.unanswerable;
-          continue;
+  const EvalConfig& config = ctx.config;
+  const int dimensions = ctx.descriptor_model.empty()
+                             ? 0
+                             : vision::read_place_describer_info(ctx.descriptor_model).dimensions;
+  for (PlaceRetrieval retrieval : ctx.retrievals)
+    for (std::size_t s = 0; s < db.selected.size(); ++s)
+      for (std::size_t k = 0; k < config.densities.size(); ++k) {
+        const auto& keyframes = db.selected[s][k];
+        PlaceRecognitionConfig places;
+        places.retrieval = retrieval;
+        station::VerifiedPlaceRecognizer recognizer(
+            ctx.vocabulary, station::make_match_verifier(places.verifier), places, dimensions);
+        for (std::size_t i = 0; i < keyframes.size(); ++i)
+          recognizer.add({db.info.robot_id, i}, 0, db.views.at(keyframes[i]));
+        PlaceScore p;
+        p.query_drone = q.info.robot_id;
+        p.database_drone = db.info.robot_id;
+        p.strategy = config.strategies[s];
+        p.retrieval = to_string(retrieval);
+        p.density = config.densities[k];
+        p.database_keyframes = keyframes.size();
+        for (auto f : q.queries) {
+          const double at = q.positions[f];
+          if (!answerable(at, db.positions, config.place_tolerance_m)) {
+            ++p.unanswerable;
+            continue;
+          }
+          std::vector<double> retrieved;
+          for (const station::KeyframeKey& key : recognizer.retrieve(q.views.at(f), 5, {}))
+            retrieved.push_back(db.positions[keyframes[key.sequence]]);
+          add_query(p.topk, at, retrieved, config.place_tolerance_m);
         }
-        std::vector<double> retrieved;
-        for (const auto& m : database.query(q.bows.at(f), 5))
-          retrieved.push_back(db.positions[keyframes[m.entry]]);
-        add_query(p.topk, at, retrieved, config.place_tolerance_m);
+        out.push_back(p);
       }
-      out.push_back(p);
-    }
 }
 
 }  // namespace
@@ -273,10 +294,25 @@ EvalResults run_eval(const EvalConfig& config, const std::string& scenario_dir, 
   results.jpeg_quality = config.codec.jpeg_quality;
   results.vocabulary = vision::locate_model(config.vocabulary, "place vocabulary");
 
-  Context ctx{config, scenario_dir,
-              logger, {},
-              {},     station::OrbVocabulary::load(results.vocabulary),
-              {},     JpegCodec(config.codec.jpeg_quality)};
+  Context ctx{config,
+              scenario_dir,
+              logger,
+              {},
+              {},
+              std::make_shared<const station::OrbVocabulary>(
+                  station::OrbVocabulary::load(results.vocabulary)),
+              {},
+              {},
+              {},
+              JpegCodec(config.codec.jpeg_quality)};
+  for (const auto& name : config.place_retrievals) {
+    const auto retrieval = place_retrieval(name);
+    if (!retrieval) throw StartupError("place_retrievals: unknown mode " + name);
+    ctx.retrievals.push_back(*retrieval);
+    if (*retrieval != PlaceRetrieval::kBow && ctx.descriptor_model.empty())
+      ctx.descriptor_model = vision::locate_model(config.place_descriptor, "place descriptor");
+  }
+  results.place_retrievals = config.place_retrievals;
   bool semantic = false;
   for (const auto& name : config.strategies) {
     ctx.strategies.push_back(strategy_from_string(name));
@@ -294,8 +330,15 @@ EvalResults run_eval(const EvalConfig& config, const std::string& scenario_dir, 
   // Place recognition: every ordered pair of drones that flew on different days.
   for (const auto& q : runs)
     for (const auto& db : runs)
-      if (q.info.day != db.info.day) score_places(config, q, db, results.places);
-  results.summary = summarise(results.words, results.places, config.strategies, config.densities);
+      if (q.info.day != db.info.day) score_places(ctx, q, db, results.places);
+  for (const auto& retrieval : config.place_retrievals) {
+    std::vector<PlaceScore> places;
+    for (const auto& p : results.places)
+      if (p.retrieval == retrieval) places.push_back(p);
+    results.summary_by_retrieval[retrieval] =
+        summarise(results.words, places, config.strategies, config.densities);
+  }
+  results.summary = results.summary_by_retrieval.at(config.place_retrievals.front());
   results.cost.wall_s = seconds_since(start);
   return results;
 }

@@ -286,14 +286,25 @@ struct TextReadingConfig {
 // Field Consensus, or OpenCV's robust estimators of a homography or a fundamental matrix.
 enum class VerifierKind { kVfc, kRansacHomography, kRansacFundamental };
 
-// Recognising places shared across keyframes and robots (ORB bag of words + verification).
+// Where the candidates verified geometrically come from: the ORB bag of words, the holistic CNN
+// descriptor (cosine similarity), or both ranked lists fused by reciprocal rank.
+enum class PlaceRetrieval { kBow, kCnn, kFusion };
+
+// Recognising places shared across keyframes and robots (retrieval + geometric verification).
 struct PlaceRecognitionConfig {
   bool enabled = true;
   // Vocabulary file from `keyfleet vocabulary build`; a bare name is looked up in
-  // <bin>/../share/keyfleet/models/ like the agent's model.
+  // <bin>/../share/keyfleet/models/ like the agent's model. Every mode needs it: the direct
+  // index matches the candidates' ORB features for verification.
   std::string vocabulary = "orb_vocabulary.bin";
+  // cnn by measurement (README "Place recognition: bag of words, CNN descriptor, fusion").
+  PlaceRetrieval retrieval = PlaceRetrieval::kCnn;
+  // The holistic descriptor's ONNX model (models/placenet), looked up like the vocabulary; used
+  // by cnn and fusion.
+  std::string descriptor = "placenet.onnx";
+  int fusion_depth = 20;  // fusion: how far down each ranked list is read
   int orb_features = 1000;
-  int candidates = 4;              // top-k bag-of-words candidates verified geometrically
+  int candidates = 4;              // top-k retrieved candidates verified geometrically
   int min_inliers = 30;            // accepted with more inliers than this (Ma and Zhao 2017)
   double min_inlier_ratio = 0.25;  // and an inlier ratio above this
   VerifierKind verifier = VerifierKind::kVfc;
@@ -367,6 +378,9 @@ std::string selection_strategy_choices();  // "vslam|quality|semantic|full"
 std::string to_string(SelectorConfig::Strategy strategy);
 std::optional<VerifierKind> verifier_kind(const std::string& name);
 std::string verifier_kind_choices();
+std::optional<PlaceRetrieval> place_retrieval(const std::string& name);
+std::string place_retrieval_choices();
+std::string to_string(PlaceRetrieval retrieval);
 std::optional<TriggerConfig::Kind> trigger_kind(const std::string& name);
 std::string trigger_kind_choices();  // "orbslam|klt|stride|list"
 std::string to_string(TriggerConfig::Kind kind);

@@ -4,12 +4,17 @@
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/station/place_recognizer.hpp"
 #include "keyfleet/station/text/text_reader.hpp"
+#include "keyfleet/vision/place_describer.hpp"
 
 namespace keyfleet::station {
 
 // The real engines the station's configuration names. nullptr when that part is disabled;
 // StartupError when a file (vocabulary, OCR data) is missing or unusable.
 std::unique_ptr<PlaceRecognizer> make_configured_place_recognizer(
+    const PlaceRecognitionConfig& config);
+// The holistic descriptor model where the retrieval uses it (cnn, fusion); nullptr otherwise.
+// One per thread that describes.
+std::unique_ptr<vision::PlaceDescriber> make_configured_place_describer(
     const PlaceRecognitionConfig& config);
 std::unique_ptr<TextReader> make_configured_text_reader(const TextReadingConfig& config);
 

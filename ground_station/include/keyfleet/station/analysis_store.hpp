@@ -26,8 +26,9 @@ struct StoredPlaceMatch {
 };
 
 // What was analysed, in the station's database (beside the keyframes table): analysis
-// status per keyframe, words (with an FTS5 index), ORB features (so a restarted station
-// rebuilds its place index without redoing ORB) and verified place matches.
+// status per keyframe, words (with an FTS5 index), ORB features and place
+// descriptors (so a restarted station rebuilds its place index without redoing either) and verified
+// place matches.
 class AnalysisStore {
  public:
   // As KeyframeStore: kReadOnly creates no schema and writes nothing.
@@ -50,6 +51,7 @@ class AnalysisStore {
     KeyframeKey key;
     std::int64_t capture_time_ns = 0;
     OrbFeatures features;
+    std::vector<float> descriptor;  // the holistic place descriptor; empty when none was stored
   };
   // Every analysed keyframe's features, in the order they were analysed.
   std::vector<StoredFeatures> features() const;

@@ -39,9 +39,10 @@ AnalysisJob job_for(const Keyframe& keyframe);
 // A verified place match: this keyframe shows the place `other` shows.
 struct PlaceMatch {
   KeyframeKey other;
-  double bow_score = 0;
-  std::size_t matches = 0;  // descriptor matches handed to the verifier
+  double bow_score = 0;     // 0 when the bag of words did not rank it (cnn retrieval)
+  std::size_t matches = 0;  // ORB descriptor matches handed to the verifier
   std::size_t inliers = 0;
+  double descriptor_similarity = 0;  // cosine; 0 when no descriptor ranked it (bow retrieval)
   double inlier_ratio() const { return matches ? double(inliers) / double(matches) : 0.0; }
 };
 
@@ -58,6 +59,7 @@ struct AnalysisResult {
   std::string detail;  // why deferred or failed
   std::vector<ReadWord> words;
   std::optional<OrbFeatures> features;
+  std::vector<float> descriptor;    // the holistic place descriptor (empty with bow retrieval)
   std::optional<PlaceMatch> place;  // the best verified match, when one passed
   std::size_t candidates_checked = 0;
   double text_ms = 0;

@@ -16,8 +16,12 @@ namespace keyfleet::station {
 // matches. Returns the number of words.
 std::size_t rebuild_map(const KeyframeStore& keyframes, const AnalysisStore& store, TopoMap& map);
 
-// Adds every analysed keyframe's stored features to the place index; returns how many.
-std::size_t rebuild_place_index(const AnalysisStore& store, PlaceRecognizer& places);
+struct PlaceIndexRebuild {
+  std::size_t indexed = 0;
+  std::size_t without_descriptor = 0;  // stored before a descriptor model was used
+};
+// Adds every analysed keyframe's stored features and descriptor to the place index.
+PlaceIndexRebuild rebuild_place_index(const AnalysisStore& store, PlaceRecognizer& places);
 
 // Ties the analysis together on the station's main thread: stored keyframes become map
 // nodes and analysis jobs; results are saved and linked into the map; when the pool is
@@ -29,7 +33,8 @@ class StationAnalysis {
                   Logger logger);
 
   // Rebuilds the map and the place index from the database (a restarted station).
-  void restore(PlaceRecognizer* places);
+  // `descriptors_expected`: the retrieval uses descriptors (warns about places stored without).
+  void restore(PlaceRecognizer* places, bool descriptors_expected = false);
   // Marks failed, with the reason, each keyframe whose analysis was started max_attempts times
   // without a result (it ended the station each time), so that it is not analysed again.
   // Returns how many.

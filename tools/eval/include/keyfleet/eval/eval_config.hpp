@@ -20,6 +20,10 @@ struct EvalConfig {
   CodecConfig codec;                // the agent's JPEG quality (bytes sent)
   std::string vocabulary = "orb_vocabulary.bin";  // place recognition (a bare name: shipped)
   int orb_features = 1000;
+  // Fig. 6b's retrieval modes (as station.yaml's analysis.places.retrieval): each is scored;
+  // the summary, the plots and the claims use the first.
+  std::vector<std::string> place_retrievals = {"bow", "cnn", "fusion"};
+  std::string place_descriptor = "placenet.onnx";  // the model cnn and fusion use
   int query_every = 10;            // place queries: every n-th frame of the query drone
   double place_tolerance_m = 5.0;  // a retrieved keyframe is right within this street distance
   int ocr_threads = 2;             // text readers at once (one Tesseract each)

@@ -5,6 +5,7 @@
 // recognition top-1/top-5 from one drone's frames against another day's drone's selected keyframes,
 // (c) bytes sent.
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,7 @@ struct WordScore {
 // Queries from one drone's frames against another drone's selected keyframes.
 struct PlaceScore {
   std::string query_drone, database_drone, strategy;
+  std::string retrieval = "bow";  // bow, cnn or fusion
   double density = 1;
   std::size_t database_keyframes = 0;
   std::size_t unanswerable = 0;  // queries no frame of the database drone is near: left out
@@ -78,7 +80,10 @@ struct EvalResults {
   int jpeg_quality = 0;
   std::vector<WordScore> words;
   std::vector<PlaceScore> places;
+  std::vector<std::string> place_retrievals;  // the first is the summary's
   std::vector<PointSummary> summary;
+  // The summary's place figures with each retrieval mode (words and bytes as in summary).
+  std::map<std::string, std::vector<PointSummary>> summary_by_retrieval;
   EvalCost cost;
 };
 
