@@ -8,17 +8,31 @@ namespace keyfleet::station {
 namespace {
 
 // Eight independent sums (one vector register's lanes), so the compiler vectorises the loop
-// without reordering a reduction; cloned for AVX2+FMA where the CPU has it.
-__attribute__((target_clones("avx2,fma", "default"))) float dot(const float* a, const float* b,
-                                                                int n) {
-  float lanes[8] = {};
+// without reordering a reduction.
+template <int kLanes = 8>
+inline float lane_dot(const float* a, const float* b, int n) {
+  float lanes[kLanes] = {};
   int i = 0;
-  for (; i + 8 <= n; i += 8)
-    for (int j = 0; j < 8; ++j) lanes[j] += a[i + j] * b[i + j];
+  for (; i + kLanes <= n; i += kLanes)
+    for (int j = 0; j < kLanes; ++j) lanes[j] += a[i + j] * b[i + j];
   float sum = 0;
   for (; i < n; ++i) sum += a[i] * b[i];
   for (float lane : lanes) sum += lane;
   return sum;
+}
+
+float dot_baseline(const float* a, const float* b, int n) { return lane_dot(a, b, n); }
+
+// The same loop compiled for AVX2 + FMA, called only where the CPU has both.
+__attribute__((target("avx2,fma"))) float dot_avx2(const float* a, const float* b, int n) {
+  return lane_dot(a, b, n);
+}
+
+using DotFunction = float (*)(const float*, const float*, int);
+
+DotFunction pick_dot() {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") ? dot_avx2 : dot_baseline;
 }
 
 void check_length(const std::vector<float>& descriptor, int dimensions) {
@@ -44,6 +58,7 @@ std::vector<DescriptorMatch> DescriptorIndex::query(
     const std::vector<float>& descriptor, std::size_t max_results,
     const std::function<bool(std::uint32_t)>& accept) const {
   check_length(descriptor, dimensions_);
+  static const DotFunction dot = pick_dot();
   std::vector<DescriptorMatch> all;
   all.reserve(size());
   for (std::uint32_t e = 0; e < size(); ++e) {
