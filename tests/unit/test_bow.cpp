@@ -457,9 +457,10 @@ TEST(BowPlaceRetrieval, CorridorWithAVocabularyOfTheReferenceFrames) {
   ASSERT_EQ(c.queries.size(), 111u);
   VocabularyParams params;  // k = 10, L = 4, seed 1
   const Recall r = corridor_recall(c, OrbVocabulary::build(c.refs, params));
-  // Measured: 0.396 and 0.802; chance is ~0.045 and ~0.2 (about 5 matching frames of 111).
-  EXPECT_GE(r.at1, 0.32);
-  EXPECT_GE(r.at5, 0.70);
+  // Measured: 0.505 and 0.874 (0.396 and 0.802 with FAST threshold 20); chance is ~0.045 and
+  // ~0.2 (about 5 matching frames of 111).
+  EXPECT_GE(r.at1, 0.42);
+  EXPECT_GE(r.at5, 0.78);
 }
 
 TEST(BowPlaceRetrieval, CorridorWithTheShippedVocabulary) {
@@ -470,9 +471,10 @@ TEST(BowPlaceRetrieval, CorridorWithTheShippedVocabulary) {
   if (!std::filesystem::exists(file)) GTEST_SKIP() << "no shipped vocabulary at " << file;
   const Corridor c = load_corridor(data_path.parent_path());
   const Recall r = corridor_recall(c, OrbVocabulary::load(file.string()));
-  // Trained on generated street frames, never on a corridor. Measured: 0.252 and 0.640.
-  EXPECT_GE(r.at1, 0.18);
-  EXPECT_GE(r.at5, 0.52);
+  // Trained on generated street frames, never on a corridor. Measured: 0.297 and 0.649 (0.252
+  // and 0.640 with FAST threshold 20).
+  EXPECT_GE(r.at1, 0.23);
+  EXPECT_GE(r.at5, 0.55);
 }
 
 }  // namespace
