@@ -59,10 +59,9 @@ VerifiedPlaceRecognizer::Ranked VerifiedPlaceRecognizer::rank(const PlaceView& v
       bow_scores[m.entry] = m.score;
     }
   }
-  const bool has_descriptor =
-      descriptors_ &&
-      view.descriptor.size() == static_cast<std::size_t>(descriptors_->dimensions());
-  if (uses_descriptors() && has_descriptor) {
+  // A query without a descriptor (or one of another model's length) finds nothing here.
+  if (descriptors_ &&
+      view.descriptor.size() == static_cast<std::size_t>(descriptors_->dimensions())) {
     const auto described = [&](std::uint32_t entry) {
       return has_descriptor_[entry] && accept(entry);
     };
@@ -134,7 +133,9 @@ PlaceOutcome VerifiedPlaceRecognizer::recognise(const PlaceView& view,
 std::vector<KeyframeKey> VerifiedPlaceRecognizer::retrieve(const PlaceView& view,
                                                            std::size_t max_results,
                                                            const PlaceFilter& filter) const {
-  const BowVector bow = view.features.descriptors.empty()
+  // Without verification, cnn retrieval needs no bag of words.
+  const bool ranks_by_bow = config_.retrieval != PlaceRetrieval::kCnn;
+  const BowVector bow = !ranks_by_bow || view.features.descriptors.empty()
                             ? BowVector{}
                             : vocabulary_->transform(view.features.descriptors);
   std::shared_lock lock(mutex_);
