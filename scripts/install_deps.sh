@@ -34,7 +34,7 @@ RUNTIME_PACKAGES=(
   libopencv-core406 libopencv-imgproc406 libopencv-imgcodecs406 libjpeg62-turbo
   libopencv-features2d406 libopencv-calib3d406 libopencv-dnn406
 )
-RUNTIME_AGENT_PACKAGES=(libopencv-videoio406)
+RUNTIME_AGENT_PACKAGES=(libopencv-videoio406 libopencv-video406)
 RUNTIME_STATION_PACKAGES=(libprotobuf32 libtesseract5 tesseract-ocr-eng wamerican libcpp-httplib0.11)
 
 PACKAGES=(
