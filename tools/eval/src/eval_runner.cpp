@@ -19,7 +19,6 @@
 #include "keyfleet/station/analysis_setup.hpp"
 #include "keyfleet/station/geometry/match_verifier.hpp"
 #include "keyfleet/station/place_recognizer.hpp"
-#include "keyfleet/station/places/bow_database.hpp"
 #include "keyfleet/station/places/orb_extractor.hpp"
 #include "keyfleet/station/places/orb_vocabulary.hpp"
 #include "keyfleet/station/text/text_reader.hpp"
@@ -134,7 +133,8 @@ struct Context {
   std::string model;  // empty when no strategy needs MiniNet
   std::shared_ptr<const station::OrbVocabulary> vocabulary;
   std::vector<PlaceRetrieval> retrievals;
-  std::string descriptor_model;  // empty when no retrieval needs the descriptor
+  std::string descriptor_model;   // empty when no retrieval needs the descriptor
+  int descriptor_dimensions = 0;  // its output length (0 without it)
   station::OrbParams orb;
   JpegCodec codec;
   std::size_t drones = 0;
@@ -243,17 +243,15 @@ DroneRun evaluate_drone(const Context& ctx, const std::string& drone, EvalResult
 void score_places(const Context& ctx, const DroneRun& q, const DroneRun& db,
                   std::vector<PlaceScore>& out) {
   const EvalConfig& config = ctx.config;
-  const int dimensions = ctx.descriptor_model.empty()
-                             ? 0
-                             : vision::read_place_describer_info(ctx.descriptor_model).dimensions;
   for (PlaceRetrieval retrieval : ctx.retrievals)
     for (std::size_t s = 0; s < db.selected.size(); ++s)
       for (std::size_t k = 0; k < config.densities.size(); ++k) {
         const auto& keyframes = db.selected[s][k];
         PlaceRecognitionConfig places;
         places.retrieval = retrieval;
-        station::VerifiedPlaceRecognizer recognizer(
-            ctx.vocabulary, station::make_match_verifier(places.verifier), places, dimensions);
+        station::VerifiedPlaceRecognizer recognizer(ctx.vocabulary,
+                                                    station::make_match_verifier(places.verifier),
+                                                    places, ctx.descriptor_dimensions);
         for (std::size_t i = 0; i < keyframes.size(); ++i)
           recognizer.add({db.info.robot_id, i}, 0, db.views.at(keyframes[i]));
         PlaceScore p;
@@ -303,14 +301,18 @@ EvalResults run_eval(const EvalConfig& config, const std::string& scenario_dir, 
                   station::OrbVocabulary::load(results.vocabulary)),
               {},
               {},
+              0,
               {},
               JpegCodec(config.codec.jpeg_quality)};
   for (const auto& name : config.place_retrievals) {
     const auto retrieval = place_retrieval(name);
     if (!retrieval) throw StartupError("place_retrievals: unknown mode " + name);
     ctx.retrievals.push_back(*retrieval);
-    if (*retrieval != PlaceRetrieval::kBow && ctx.descriptor_model.empty())
+    if (*retrieval != PlaceRetrieval::kBow && ctx.descriptor_model.empty()) {
       ctx.descriptor_model = vision::locate_model(config.place_descriptor, "place descriptor");
+      ctx.descriptor_dimensions =
+          vision::read_place_describer_info(ctx.descriptor_model).dimensions;
+    }
   }
   results.place_retrievals = config.place_retrievals;
   bool semantic = false;

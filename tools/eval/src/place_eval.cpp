@@ -19,10 +19,9 @@
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/scenario_truth.hpp"
 #include "keyfleet/station/analysis_setup.hpp"
-#include "keyfleet/station/geometry/match_verifier.hpp"
 #include "keyfleet/station/place_recognizer.hpp"
 #include "keyfleet/station/places/orb_extractor.hpp"
-#include "keyfleet/vision/model_files.hpp"
+#include "keyfleet/vision/place_describer.hpp"
 
 namespace keyfleet::eval {
 namespace {
