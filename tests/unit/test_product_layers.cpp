@@ -1,12 +1,15 @@
 // keyfleet's matrix-product stand-ins (dnn_layers.hpp) compute what OpenCV's layers do: the
 // sub-pixel transposed convolution for the geometry it takes over (3x3, stride 2, padding 1,
-// output padding 1) and the 1x1 convolution, with and without bias and a fused activation; other
-// geometries stay OpenCV's, and the shipped MiniNet gives the same masks in a batch as one frame
-// at a time.
+// output padding 1) and the 1x1 convolution, with and without bias and a fused activation; in
+// float, and in bfloat16 where the CPU has it (then what OpenCV computes from the input and
+// weights rounded to bfloat16); other geometries stay OpenCV's, and the shipped MiniNet gives the
+// same masks in a batch as one frame at a time.
 #include <gtest/gtest.h>
 
 #include <opencv2/dnn/shape_utils.hpp>
 
+#include <cstdint>
+#include <cstring>
 #include <optional>
 #include <string>
 #include <vector>
@@ -65,33 +68,70 @@ struct Shape {
   bool bias, selu;
 };
 
+// Each float rounded to the nearest bfloat16 (ties to even): what the bfloat16 stand-ins multiply.
+cv::Mat rounded_to_bfloat16(const cv::Mat& m) {
+  cv::Mat out = m.clone();
+  float* v = out.ptr<float>();
+  for (std::size_t i = 0; i < out.total(); ++i) {
+    std::uint32_t bits;
+    std::memcpy(&bits, v + i, sizeof bits);
+    bits = (bits + 0x7fffu + ((bits >> 16) & 1u)) & 0xffff0000u;
+    std::memcpy(v + i, &bits, sizeof bits);
+  }
+  return out;
+}
+
+// The precisions a stand-in runs in here: float, and bfloat16 where the CPU has it.
+std::vector<bool> precisions() {
+  if (bfloat16_products_supported()) return {false, true};
+  return {false};
+}
+
+DnnLayers stand_ins(bool bfloat16) {
+  DnnLayers layers;
+  layers.bfloat16_products = bfloat16;
+  return layers;
+}
+
+// The layer type that runs a product stand-in with `outputs` channels.
+std::string stand_in_type(const std::string& name, bool bfloat16, int outputs) {
+  return name + (bfloat16 && outputs >= 8 ? "Bf16" : "");
+}
+
 TEST(SubpixelDeconvolution, MatchesOpenCvsTransposedConvolution) {
   if (!matrix_product_layers_supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layer stays";
-  // Output channels in blocks of 6, of 4 with a partial block, of 2 and 1; widths below, at and
-  // above a vector; one-pixel planes.
-  const std::vector<Shape> shapes = {{5, 6, 3, 7, true, false},    {7, 4, 4, 9, false, true},
-                                     {3, 2, 1, 1, true, false},    {13, 5, 2, 16, true, true},
-                                     {20, 12, 5, 3, false, false}, {9, 1, 6, 17, true, false},
-                                     {40, 18, 4, 8, true, true},   {300, 7, 2, 5, false, false}};
+  // Output channels in blocks of 6, of 4 with a partial block, of 2 and 1 (and in bfloat16 of
+  // 6, 8, 4 and 12); widths below, at and above a vector; one-pixel planes; odd input channels.
+  const std::vector<Shape> shapes = {
+      {5, 6, 3, 7, true, false},   {7, 4, 4, 9, false, true},     {3, 2, 1, 1, true, false},
+      {13, 5, 2, 16, true, true},  {20, 12, 5, 3, false, false},  {9, 1, 6, 17, true, false},
+      {40, 18, 4, 8, true, true},  {300, 7, 2, 5, false, false},  {31, 16, 9, 21, true, true},
+      {3, 8, 16, 40, true, false}, {288, 96, 4, 8, false, false}, {56, 36, 3, 70, true, true}};
   cv::RNG rng(11);
-  for (const Shape& s : shapes) {
-    cv::Mat input({2, s.cin, s.h, s.w}, CV_32F), weights({s.cin, s.cout, 3, 3}, CV_32F), bias;
-    rng.fill(input, cv::RNG::UNIFORM, -2, 2);
-    rng.fill(weights, cv::RNG::UNIFORM, -1, 1);
-    if (s.bias) {
-      bias.create(1, s.cout, CV_32F);
-      rng.fill(bias, cv::RNG::UNIFORM, -1, 1);
+  for (const bool bfloat16 : precisions())
+    for (const Shape& s : shapes) {
+      cv::Mat input({2, s.cin, s.h, s.w}, CV_32F), weights({s.cin, s.cout, 3, 3}, CV_32F), bias;
+      rng.fill(input, cv::RNG::UNIFORM, -2, 2);
+      rng.fill(weights, cv::RNG::UNIFORM, -1, 1);
+      if (s.bias) {
+        bias.create(1, s.cout, CV_32F);
+        rng.fill(bias, cv::RNG::UNIFORM, -1, 1);
+      }
+      std::string type;
+      const cv::Mat got = deconvolve(input, weights, bias, {}, s.selu, stand_ins(bfloat16), &type);
+      EXPECT_EQ(type, stand_in_type("KeyfleetSubpixelDeconvolution", bfloat16, s.cout));
+      if (type.size() > 4 && type.substr(type.size() - 4) == "Bf16") {
+        input = rounded_to_bfloat16(input);
+        weights = rounded_to_bfloat16(weights);
+      }
+      const cv::Mat expected = deconvolve(input, weights, bias, {}, s.selu, DnnLayers::opencv());
+      ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
+      EXPECT_EQ(cv::dnn::shape(got), (cv::dnn::MatShape{2, s.cout, 2 * s.h, 2 * s.w}));
+      // Sums of up to 4 x cin products of magnitude <= 2, in another order than OpenCV's
+      // (products of bfloat16 values are exact in float).
+      EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * 4 * s.cin * 2 + 1e-6)
+          << s.cin << " -> " << s.cout << ", " << s.w << "x" << s.h << ", " << type;
     }
-    const cv::Mat expected = deconvolve(input, weights, bias, {}, s.selu, DnnLayers::opencv());
-    std::string type;
-    const cv::Mat got = deconvolve(input, weights, bias, {}, s.selu, DnnLayers{}, &type);
-    EXPECT_EQ(type, "KeyfleetSubpixelDeconvolution");
-    ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
-    EXPECT_EQ(cv::dnn::shape(got), (cv::dnn::MatShape{2, s.cout, 2 * s.h, 2 * s.w}));
-    // Sums of up to 4 x cin products of magnitude <= 2, in another order than OpenCV's.
-    EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * 4 * s.cin * 2 + 1e-6)
-        << s.cin << " -> " << s.cout << ", " << s.w << "x" << s.h;
-  }
 }
 
 TEST(SubpixelDeconvolution, LeavesOtherGeometriesToOpenCv) {
@@ -122,29 +162,36 @@ cv::Mat convolve_1x1(const cv::Mat& input, const cv::Mat& weights, const cv::Mat
 
 TEST(PointwiseStandIn, MatchesOpenCvsConvolution) {
   if (!matrix_product_layers_supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layer stays";
-  // Output channels in whole blocks of 6 and 4 and in partial ones; pixel counts that fill whole
-  // column blocks (16, 24, 48) and that do not.
-  const std::vector<Shape> shapes = {{3, 12, 8, 16, true, true},  {12, 24, 4, 12, false, false},
-                                     {5, 4, 3, 8, true, false},   {7, 2, 6, 8, false, true},
-                                     {9, 5, 3, 7, true, true},    {386, 386, 4, 8, true, false},
-                                     {300, 7, 1, 1, false, true}, {28, 1, 5, 11, true, false}};
+  // Output channels in whole blocks of 6 and 4 and in partial ones (bfloat16: also 8 and 12);
+  // pixel counts that fill whole column blocks (16, 24, 48; 32, 64, 96) and that do not; odd
+  // input channels.
+  const std::vector<Shape> shapes = {
+      {3, 12, 8, 16, true, true},   {12, 24, 4, 12, false, false}, {5, 4, 3, 8, true, false},
+      {7, 2, 6, 8, false, true},    {9, 5, 3, 7, true, true},      {386, 386, 4, 8, true, false},
+      {300, 7, 1, 1, false, true},  {28, 1, 5, 11, true, false},   {31, 16, 9, 21, true, true},
+      {96, 48, 8, 12, false, true}, {192, 8, 2, 24, true, false},  {25, 9, 1, 1, true, true}};
   cv::RNG rng(14);
-  for (const Shape& s : shapes) {
-    cv::Mat input({2, s.cin, s.h, s.w}, CV_32F), weights({s.cout, s.cin, 1, 1}, CV_32F), bias;
-    rng.fill(input, cv::RNG::UNIFORM, -2, 2);
-    rng.fill(weights, cv::RNG::UNIFORM, -1, 1);
-    if (s.bias) {
-      bias.create(1, s.cout, CV_32F);
-      rng.fill(bias, cv::RNG::UNIFORM, -1, 1);
+  for (const bool bfloat16 : precisions())
+    for (const Shape& s : shapes) {
+      cv::Mat input({2, s.cin, s.h, s.w}, CV_32F), weights({s.cout, s.cin, 1, 1}, CV_32F), bias;
+      rng.fill(input, cv::RNG::UNIFORM, -2, 2);
+      rng.fill(weights, cv::RNG::UNIFORM, -1, 1);
+      if (s.bias) {
+        bias.create(1, s.cout, CV_32F);
+        rng.fill(bias, cv::RNG::UNIFORM, -1, 1);
+      }
+      std::string type;
+      const cv::Mat got = convolve_1x1(input, weights, bias, s.selu, stand_ins(bfloat16), &type);
+      EXPECT_EQ(type, stand_in_type("KeyfleetPointwise", bfloat16, s.cout));
+      if (type.size() > 4 && type.substr(type.size() - 4) == "Bf16") {
+        input = rounded_to_bfloat16(input);
+        weights = rounded_to_bfloat16(weights);
+      }
+      const cv::Mat expected = convolve_1x1(input, weights, bias, s.selu, DnnLayers::opencv());
+      ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
+      EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * s.cin * 2 + 1e-6)
+          << s.cin << " -> " << s.cout << ", " << s.w << "x" << s.h << ", " << type;
     }
-    const cv::Mat expected = convolve_1x1(input, weights, bias, s.selu, DnnLayers::opencv());
-    std::string type;
-    const cv::Mat got = convolve_1x1(input, weights, bias, s.selu, DnnLayers{}, &type);
-    EXPECT_EQ(type, "KeyfleetPointwise");
-    ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
-    EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * s.cin * 2 + 1e-6)
-        << s.cin << " -> " << s.cout << ", " << s.w << "x" << s.h;
-  }
 }
 
 // Batched frames reach the transposed convolutions as slices of concatenated blobs (images not

@@ -61,7 +61,7 @@ struct Variant {
 void print_variant_timings(const std::vector<Variant>& variants, const std::vector<cv::Size>& sizes,
                            int repetitions) {
   std::printf("\nms per forward pass (median of %d, the variants taking turns)\n", repetitions);
-  std::printf("%-10s %-30s %9s %6s %9s %6s\n", "input", "variant", "1 thread", "ratio", "2 threads",
+  std::printf("%-10s %-34s %9s %6s %9s %6s\n", "input", "variant", "1 thread", "ratio", "2 threads",
               "ratio");
   for (const auto& size : sizes) {
     std::vector<std::unique_ptr<vision::DnnTextSegmenter>> nets;
@@ -76,7 +76,7 @@ void print_variant_timings(const std::vector<Variant>& variants, const std::vect
       ms.push_back(eval::median_forward_ms(segmenters, repetitions));
     }
     for (std::size_t k = 0; k < variants.size(); ++k)
-      std::printf("%4dx%-5d %-30s %9.1f %6.2f %9.1f %6.2f\n", size.width, size.height,
+      std::printf("%4dx%-5d %-34s %9.1f %6.2f %9.1f %6.2f\n", size.width, size.height,
                   variants[k].label.c_str(), ms[0][k], ms[0][k] / ms[0][0], ms[1][k],
                   ms[1][k] / ms[1][0]);
   }
@@ -166,22 +166,28 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
     const std::string name = i ? "compare " + std::to_string(i) : "model";
     variants.push_back({path, name + ", OpenCV layers", vision::DnnLayers::opencv()});
     variants.push_back(
-        {path, name + ", SELU + depthwise", vision::DnnLayers{true, true, false, false}});
-    variants.push_back({path, name + ", all stand-ins", vision::DnnLayers{}});
+        {path, name + ", SELU + depthwise", vision::DnnLayers{true, true, false, false, false}});
+    if (vision::bfloat16_products_supported()) {
+      variants.push_back({path, name + ", all stand-ins, float",
+                          vision::DnnLayers{true, true, true, true, false}});
+      variants.push_back({path, name + ", all stand-ins, bfloat16", vision::DnnLayers{}});
+    } else {
+      variants.push_back({path, name + ", all stand-ins", vision::DnnLayers{}});
+    }
   }
   print_variant_timings(variants, sizes, o.repetitions);
   if (o.profile) print_layer_profile(variants, sizes.at(0), o.repetitions);
 
   const auto sets = evaluation_sets(o);
   // Each variant on each set: the stand-ins must score what OpenCV's layers score.
-  std::printf("\n%-24s %-30s %7s %7s %7s %7s\n", "set (512x256)", "variant", "images", "R %", "P %",
+  std::printf("\n%-24s %-34s %7s %7s %7s %7s\n", "set (512x256)", "variant", "images", "R %", "P %",
               "IoU %");
   for (const auto& set : sets) {
     if (!set.present) continue;
     for (const auto& v : variants) {
       vision::DnnTextSegmenter net(v.model, 2, cv::Size(512, 256), v.layers);
       const auto s = set.run(net);
-      std::printf("%-24s %-30s %7zu %7.2f %7.2f %7.2f\n", set.name.c_str(), v.label.c_str(),
+      std::printf("%-24s %-34s %7zu %7.2f %7.2f %7.2f\n", set.name.c_str(), v.label.c_str(),
                   s.images, 100 * s.recall, 100 * s.precision, 100 * s.iou);
     }
   }

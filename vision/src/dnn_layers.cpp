@@ -7,12 +7,23 @@
 
 #include <algorithm>
 #include <mutex>
+#include <string>
 
+#include "bf16_product.hpp"
 #include "pointwise_convolution.hpp"
 #include "selu_avx2.hpp"
 #include "subpixel_deconvolution.hpp"
 
 namespace keyfleet::vision {
+namespace {
+
+// The stand-ins chosen by the DnnLayersScope alive (one at a time), read as layers are created.
+DnnLayers& scope_layers() {
+  static DnnLayers layers;
+  return layers;
+}
+
+}  // namespace
 
 void selu_vectorised(const float* src, float* dst, int n, float alpha, float gamma) {
   const int done = selu_avx2(src, dst, n, alpha, gamma);
@@ -186,9 +197,10 @@ template <class Kernel>
 class ProductLayer : public cv::dnn::Layer {
  public:
   ProductLayer(const cv::dnn::LayerParams& params, const char* layer_type)
-      : kernel_(params.blobs[0], params.blobs.size() > 1 ? params.blobs[1] : cv::Mat()) {
+      : kernel_(params.blobs[0], params.blobs.size() > 1 ? params.blobs[1] : cv::Mat(),
+                scope_layers().bfloat16_products) {
     setParamsFrom(params);
-    type = layer_type;
+    type = std::string(layer_type) + (kernel_.bfloat16() ? "Bf16" : "");
   }
 
   bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
@@ -304,12 +316,15 @@ cv::Ptr<cv::dnn::Layer> create_deconvolution(cv::dnn::LayerParams& params) {
 
 bool matrix_product_layers_supported() { return product_supported(); }
 
+bool bfloat16_products_supported() { return product_supported() && bf16_product_supported(); }
+
 std::mutex& DnnLayersScope::scope_mutex() {
   static std::mutex mutex;
   return mutex;
 }
 
 DnnLayersScope::DnnLayersScope(DnnLayers layers) : lock_(scope_mutex()) {
+  scope_layers() = layers;
   const std::pair<bool, std::pair<const char*, cv::dnn::LayerFactory::Constructor>> chosen[] = {
       {layers.vectorised_selu, {"Selu", VectorisedSeluLayer::create}},
       {layers.depthwise || layers.pointwise,

@@ -5,35 +5,57 @@
 
 namespace keyfleet::vision {
 
-PointwiseConvolution::PointwiseConvolution(const cv::Mat& weights, const cv::Mat& bias)
-    : cin_(weights.size[1]), cout_(weights.size[0]), weights_(weights) {
+PointwiseConvolution::PointwiseConvolution(const cv::Mat& weights, const cv::Mat& bias,
+                                           bool bfloat16)
+    : cin_(weights.size[1]),
+      cout_(weights.size[0]),
+      bfloat16_(bfloat16 && bf16_product_supported() && cout_ >= kLeastBfloat16Outputs),
+      weights_(weights) {
   CV_Assert(weights.dims == 4 && weights.type() == CV_32F && weights.isContinuous() &&
             weights.size[2] == 1 && weights.size[3] == 1);
   CV_Assert(bias.empty() || (bias.type() == CV_32F && int(bias.total()) == cout_));
-  bias_.assign(std::size_t((cout_ + 11) / 12 * 12), 0.f);
+  bias_.assign(std::size_t((cout_ + 23) / 24 * 24), 0.f);
   for (int c = 0; c < cout_ && !bias.empty(); ++c) bias_[c] = bias.ptr<float>()[c];
 }
 
 void PointwiseConvolution::pack(ProductBlock block) {
   block_ = block;
   row_blocks_ = (cout_ + block_.rows - 1) / block_.rows;
-  packed_.assign(std::size_t(row_blocks_) * cin_ * block_.rows, 0.f);
+  const int depth = summed();
+  const std::size_t size = std::size_t(row_blocks_) * depth * block_.rows;
+  packed_.assign(bfloat16_ ? 0 : size, 0.f);
+  packed_pairs_.assign(bfloat16_ ? size : 0, 0u);
   const float* w = weights_.ptr<float>();  // [cout][cin]
+  const auto weight = [&](int co, int ci) {
+    return ci < cin_ ? w[std::size_t(co) * cin_ + ci] : 0.f;
+  };
   for (int co = 0; co < cout_; ++co)
-    for (int ci = 0; ci < cin_; ++ci)
-      packed_[(std::size_t(co / block_.rows) * cin_ + ci) * block_.rows + co % block_.rows] =
-          w[std::size_t(co) * cin_ + ci];
+    for (int k = 0; k < depth; ++k) {
+      const std::size_t at =
+          (std::size_t(co / block_.rows) * depth + k) * block_.rows + co % block_.rows;
+      if (bfloat16_)
+        packed_pairs_[at] = bf16_pair(weight(co, 2 * k), weight(co, 2 * k + 1));
+      else
+        packed_[at] = weight(co, k);
+    }
 }
+
+int PointwiseConvolution::summed() const { return bfloat16_ ? (cin_ + 1) / 2 : cin_; }
 
 void PointwiseConvolution::run(const float* src, int pixels, float* dst,
                                const cv::dnn::ActivationLayer* activation) {
-  const ProductBlock block = ProductBlock::least_padding(cout_, pixels);
+  const ProductBlock block =
+      bfloat16_ ? bf16_least_padding(cout_, pixels) : ProductBlock::least_padding(cout_, pixels);
   if (block.rows != block_.rows) pack(block);
   const int width = block_.columns;
   const int columns = (pixels + width - 1) / width * width;
-  // The input in place when its planes are whole blocks, else copied with zero columns after.
+  // The input in place when its planes are whole blocks, else copied with zero columns after;
+  // in bfloat16, converted to pairs with zero columns after.
   const float* b = src;
-  if (columns != pixels) {
+  if (bfloat16_) {
+    padded_pairs_.assign(std::size_t(summed()) * columns, 0u);
+    pack_bf16_pairs(src, cin_, 1, pixels, padded_pairs_.data(), columns, pixels);
+  } else if (columns != pixels) {
     padded_.assign(std::size_t(cin_) * columns, 0.f);
     for (int c = 0; c < cin_; ++c)
       std::copy_n(src + std::size_t(c) * pixels, pixels, padded_.data() + std::size_t(c) * columns);
@@ -48,22 +70,30 @@ void PointwiseConvolution::run(const float* src, int pixels, float* dst,
   }
   // Input channels in chunks whose block columns stay within about 16 KB (L1); stripes of a
   // few blocks, finished (activation included) before the next.
+  const int total = summed();
   const int most = std::max(8, 4096 / width);
-  const int chunks = (cin_ + most - 1) / most, depth = (cin_ + chunks - 1) / chunks;
+  const int chunks = (total + most - 1) / most, depth = (total + chunks - 1) / chunks;
   constexpr int kStripe = 4;
   const int stripes = (columns / width + kStripe - 1) / kStripe;
   const int zero_shift = 0;
   cv::parallel_for_(cv::Range(0, stripes), [&](const cv::Range& range) {
     for (int stripe = range.start; stripe < range.end; ++stripe) {
       const int first = stripe * kStripe, last = std::min(columns / width, first + kStripe);
-      for (int c0 = 0; c0 < cin_; c0 += depth) {
-        const int k = std::min(depth, cin_ - c0);
+      for (int k0 = 0; k0 < total; k0 += depth) {
+        const int k = std::min(depth, total - k0);
         for (int blk = first; blk < last; ++blk)
-          for (int rb = 0; rb < row_blocks_; ++rb)
-            product_block(block_, 1, packed_.data() + (std::size_t(rb) * cin_ + c0) * block_.rows,
-                          0, b + std::size_t(c0) * columns + blk * width, &zero_shift, k, columns,
-                          c0 == 0 ? bias_.data() + rb * block_.rows : nullptr,
-                          out + std::size_t(rb) * block_.rows * columns + blk * width, columns);
+          for (int rb = 0; rb < row_blocks_; ++rb) {
+            const std::size_t a = (std::size_t(rb) * total + k0) * block_.rows;
+            const std::size_t at = std::size_t(k0) * columns + blk * width;
+            const float* bias = k0 == 0 ? bias_.data() + rb * block_.rows : nullptr;
+            float* o = out + std::size_t(rb) * block_.rows * columns + blk * width;
+            if (bfloat16_)
+              product_block_bf16(block_, 1, packed_pairs_.data() + a, 0, padded_pairs_.data() + at,
+                                 &zero_shift, k, columns, bias, o, columns);
+            else
+              product_block(block_, 1, packed_.data() + a, 0, b + at, &zero_shift, k, columns, bias,
+                            o, columns);
+          }
       }
       const int n0 = first * width, n1 = std::min(pixels, last * width);
       if (n1 <= n0) continue;

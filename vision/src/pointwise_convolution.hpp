@@ -5,19 +5,24 @@
 #include <opencv2/core.hpp>
 #include <opencv2/dnn/all_layers.hpp>
 
+#include <cstdint>
 #include <vector>
 
 #include "avx2_product.hpp"
+#include "bf16_product.hpp"
 
 namespace keyfleet::vision {
 
 class PointwiseConvolution {
  public:
-  // weights: output channels x input channels x 1 x 1, float; bias: empty or one per output.
-  PointwiseConvolution(const cv::Mat& weights, const cv::Mat& bias);
+  // weights: output channels x input channels x 1 x 1, float; bias: empty or one per output;
+  // bfloat16 as for SubpixelDeconvolution.
+  PointwiseConvolution(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16);
+  static constexpr int kLeastBfloat16Outputs = 8;
 
   int input_channels() const { return cin_; }
   int output_channels() const { return cout_; }
+  bool bfloat16() const { return bfloat16_; }
 
   // One image: src is input_channels planes of `pixels` floats, dst output_channels planes, each
   // set contiguous; `activation` may be null. Runs on cv::parallel_for_'s threads; not reentrant.
@@ -25,17 +30,21 @@ class PointwiseConvolution {
 
  private:
   void pack(ProductBlock block);  // the weights for blocks of that shape
+  int summed() const;             // the length of the summed dimension: input channels, or pairs
 
   int cin_, cout_;
+  bool bfloat16_;
   cv::Mat weights_;
   std::vector<float> bias_;  // padded to whole row blocks of any shape
   // The block shape the weights are packed for (chosen per input size: the least padding).
   ProductBlock block_{0, 0};
   int row_blocks_ = 0;
-  std::vector<float> packed_;  // [row block][input channel][block_.rows]
+  std::vector<float> packed_;                // [row block][input channel][block_.rows]
+  std::vector<std::uint32_t> packed_pairs_;  // [row block][input pair][block_.rows] (bfloat16)
   // Used when the columns or rows do not fill whole blocks: the input with zero columns after
   // each plane, and the products before they go to dst.
   std::vector<float> padded_, products_;
+  std::vector<std::uint32_t> padded_pairs_;  // the input as bfloat16 pairs
 };
 
 }  // namespace keyfleet::vision

@@ -21,12 +21,18 @@ int round_up(int value, int multiple) { return (value + multiple - 1) / multiple
 
 bool SubpixelDeconvolution::supported() { return product_supported(); }
 
-SubpixelDeconvolution::SubpixelDeconvolution(const cv::Mat& weights, const cv::Mat& bias)
-    : cin_(weights.size[0]), cout_(weights.size[1]), weights_(weights) {
+int SubpixelDeconvolution::summed() const { return bfloat16_ ? (cin_ + 1) / 2 : cin_; }
+
+SubpixelDeconvolution::SubpixelDeconvolution(const cv::Mat& weights, const cv::Mat& bias,
+                                             bool bfloat16)
+    : cin_(weights.size[0]),
+      cout_(weights.size[1]),
+      bfloat16_(bfloat16 && bf16_product_supported() && cout_ >= kLeastBfloat16Outputs),
+      weights_(weights) {
   CV_Assert(weights.dims == 4 && weights.type() == CV_32F && weights.isContinuous() &&
             weights.size[2] == 3 && weights.size[3] == 3);
   CV_Assert(bias.empty() || (bias.type() == CV_32F && int(bias.total()) == cout_));
-  bias_.assign(std::size_t(round_up(cout_, 12)), 0.f);
+  bias_.assign(std::size_t(round_up(cout_, 24)), 0.f);
   for (int c = 0; c < cout_ && !bias.empty(); ++c) bias_[c] = bias.ptr<float>()[c];
   for (int a = 0; a < 2; ++a)
     for (int b = 0; b < 2; ++b) {
@@ -49,39 +55,59 @@ void SubpixelDeconvolution::pack(ProductBlock block) {
   lanes_per_block_ = block.columns;
   row_blocks_ = (cout_ + block.rows - 1) / block.rows;
   const float* w = weights_.ptr<float>();  // [cin][cout][3][3]
+  const int depth = summed();
   for (Phase& phase : phases_) {
-    phase.packed.assign(std::size_t(row_blocks_) * phase.taps * cin_ * block.rows, 0.f);
+    const auto weight = [&](int ci, int co, int t) {
+      return ci < cin_ ? w[((std::size_t(ci) * cout_ + co) * 3 + phase.kernel_rows[t]) * 3 +
+                           phase.kernel_cols[t]]
+                       : 0.f;
+    };
+    const auto at = [&](int co, int t, int k) {
+      return ((std::size_t(co / block.rows) * phase.taps + t) * depth + k) * block.rows +
+             co % block.rows;
+    };
+    const std::size_t size = std::size_t(row_blocks_) * phase.taps * depth * block.rows;
+    phase.packed.assign(bfloat16_ ? 0 : size, 0.f);
+    phase.packed_pairs.assign(bfloat16_ ? size : 0, 0u);
     for (int co = 0; co < cout_; ++co)
       for (int t = 0; t < phase.taps; ++t)
-        for (int ci = 0; ci < cin_; ++ci)
-          phase.packed[((std::size_t(co / block.rows) * phase.taps + t) * cin_ + ci) * block.rows +
-                       co % block.rows] =
-              w[((std::size_t(ci) * cout_ + co) * 3 + phase.kernel_rows[t]) * 3 +
-                phase.kernel_cols[t]];
+        for (int k = 0; k < depth; ++k) {
+          if (bfloat16_)
+            phase.packed_pairs[at(co, t, k)] =
+                bf16_pair(weight(2 * k, co, t), weight(2 * k + 1, co, t));
+          else
+            phase.packed[at(co, t, k)] = weight(k, co, t);
+        }
   }
 }
 
 void SubpixelDeconvolution::multiply(const Phase& phase, int block_begin, int block_end,
                                      float* out) const {
-  // Input channels in chunks whose columns of a block (all taps) stay within about 16 KB (L1).
+  // The summed dimension in chunks whose columns of a block (all taps) stay within about 16 KB
+  // (L1).
+  const int total = summed();
   const int most = std::max(8, 4096 / (phase.taps * lanes_per_block_));
-  const int chunks = (cin_ + most - 1) / most, depth = (cin_ + chunks - 1) / chunks;
+  const int chunks = (total + most - 1) / most, depth = (total + chunks - 1) / chunks;
   int shifts[4];
   for (int t = 0; t < phase.taps; ++t)
     shifts[t] = phase.shift_rows[t] * padded_width_ + phase.shift_cols[t];
-  const int rows = rows_per_block_;
-  const std::size_t tap_stride = std::size_t(cin_) * rows;
-  for (int c0 = 0; c0 < cin_; c0 += depth) {
-    const int k = std::min(depth, cin_ - c0);
+  const ProductBlock shape{rows_per_block_, lanes_per_block_};
+  const std::size_t tap_stride = std::size_t(total) * shape.rows;
+  for (int k0 = 0; k0 < total; k0 += depth) {
+    const int k = std::min(depth, total - k0);
     for (int block = block_begin; block < block_end; ++block) {
       const int n0 = block * lanes_per_block_;
-      const float* b = padded_.data() + c0 * plane_ + n0;
       for (int rb = 0; rb < row_blocks_; ++rb) {
-        const float* a = phase.packed.data() + (std::size_t(rb) * phase.taps * cin_ + c0) * rows;
-        const float* bias = c0 == 0 ? bias_.data() + rb * rows : nullptr;
-        float* o = out + std::size_t(rb) * rows * columns_ + n0;
-        product_block({rows, lanes_per_block_}, phase.taps, a, tap_stride, b, shifts, k, plane_,
-                      bias, o, columns_);
+        const std::size_t a = (std::size_t(rb) * phase.taps * total + k0) * shape.rows;
+        const float* bias = k0 == 0 ? bias_.data() + rb * shape.rows : nullptr;
+        float* o = out + std::size_t(rb) * shape.rows * columns_ + n0;
+        if (bfloat16_)
+          product_block_bf16(shape, phase.taps, phase.packed_pairs.data() + a, tap_stride,
+                             padded_pairs_.data() + k0 * plane_ + n0, shifts, k, plane_, bias, o,
+                             columns_);
+        else
+          product_block(shape, phase.taps, phase.packed.data() + a, tap_stride,
+                        padded_.data() + k0 * plane_ + n0, shifts, k, plane_, bias, o, columns_);
       }
     }
   }
@@ -93,15 +119,21 @@ void SubpixelDeconvolution::run(const float* src, int h, int w, float* dst,
   // the input's edge) and the columns a last block reads beyond that; products are computed on
   // the padded width (the extra column's results are dropped).
   padded_width_ = w + 1;
-  const ProductBlock block = ProductBlock::least_padding(cout_, h * padded_width_);
+  const ProductBlock block = bfloat16_ ? bf16_least_padding(cout_, h * padded_width_)
+                                       : ProductBlock::least_padding(cout_, h * padded_width_);
   if (block.rows != rows_per_block_) pack(block);
   columns_ = round_up(h * padded_width_, lanes_per_block_);
-  plane_ = std::size_t(round_up(columns_ + padded_width_ + 1, 8));
-  padded_.assign(std::size_t(cin_) * plane_, 0.f);
-  for (int c = 0; c < cin_; ++c)
-    for (int y = 0; y < h; ++y)
-      std::copy_n(src + (std::size_t(c) * h + y) * w, w,
-                  padded_.data() + c * plane_ + std::size_t(y) * padded_width_);
+  plane_ = std::size_t(round_up(columns_ + padded_width_ + 1, 16));
+  if (bfloat16_) {
+    padded_pairs_.assign(std::size_t(summed()) * plane_, 0u);
+    pack_bf16_pairs(src, cin_, h, w, padded_pairs_.data(), plane_, padded_width_);
+  } else {
+    padded_.assign(std::size_t(cin_) * plane_, 0.f);
+    for (int c = 0; c < cin_; ++c)
+      for (int y = 0; y < h; ++y)
+        std::copy_n(src + (std::size_t(c) * h + y) * w, w,
+                    padded_.data() + c * plane_ + std::size_t(y) * padded_width_);
+  }
   const std::size_t phase_size = std::size_t(row_blocks_) * rows_per_block_ * columns_;
   products_.resize(4 * phase_size);
   cv::parallel_for_(cv::Range(0, columns_ / lanes_per_block_), [&](const cv::Range& blocks) {

@@ -8,9 +8,11 @@
 #include <opencv2/core.hpp>
 #include <opencv2/dnn/all_layers.hpp>
 
+#include <cstdint>
 #include <vector>
 
 #include "avx2_product.hpp"
+#include "bf16_product.hpp"
 
 namespace keyfleet::vision {
 
@@ -20,11 +22,15 @@ class SubpixelDeconvolution {
   static bool supported();
 
   // weights: input channels x output channels x 3 x 3 (ONNX ConvTranspose's layout), float;
-  // bias: empty or one float per output channel.
-  SubpixelDeconvolution(const cv::Mat& weights, const cv::Mat& bias);
+  // bias: empty or one float per output channel. bfloat16: multiply in bfloat16 pairs (sums in
+  // float; bf16_product.hpp) where the CPU has AVX512-BF16 and there are at least
+  // kLeastBfloat16Outputs output channels (fewer would not repay converting the input).
+  SubpixelDeconvolution(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16);
+  static constexpr int kLeastBfloat16Outputs = 8;
 
   int input_channels() const { return cin_; }
   int output_channels() const { return cout_; }
+  bool bfloat16() const { return bfloat16_; }
 
   // One image: src is input_channels planes of h x w, dst output_channels planes of 2h x 2w,
   // each set contiguous; `activation` (may be null) is applied to each output plane once written.
@@ -36,22 +42,28 @@ class SubpixelDeconvolution {
     int taps = 0;
     int shift_rows[4] = {}, shift_cols[4] = {};    // input offset (0 or 1) of each tap
     int kernel_rows[4] = {}, kernel_cols[4] = {};  // its place in the 3x3 kernel
-    std::vector<float> packed;  // [row block][tap][input channel][rows_per_block]
+    // [row block][tap][input channel or pair][rows_per_block]: floats or bfloat16 pairs
+    std::vector<float> packed;
+    std::vector<std::uint32_t> packed_pairs;
   };
 
   void pack(ProductBlock block);  // the weights for blocks of that shape
   void multiply(const Phase& phase, int block_begin, int block_end, float* out) const;
+  int summed() const;  // the length of the summed dimension: input channels, or their pairs
 
   int cin_, cout_;
+  bool bfloat16_;
   cv::Mat weights_;
   std::vector<float> bias_;  // padded to whole row blocks of any shape
   // The block shape the weights are packed for (chosen per input size: the least padding).
   int rows_per_block_ = 0, row_blocks_ = 0, lanes_per_block_ = 0;
   Phase phases_[4];  // (a, b) = (0, 0), (0, 1), (1, 0), (1, 1)
-  // Per run: the input with a zero column and row after each plane, the four phase products.
+  // Per run: the input with a zero column and row after each plane (floats or bfloat16 pairs),
+  // the four phase products.
   int padded_width_ = 0, columns_ = 0;
   std::size_t plane_ = 0;
   std::vector<float> padded_, products_;
+  std::vector<std::uint32_t> padded_pairs_;
 };
 
 }  // namespace keyfleet::vision

@@ -14,7 +14,10 @@
 // - 1x1 convolution (stride 1, one group): the same matrix product, the activation applied
 //   while the columns are in cache.
 // The last two need x86-64 with AVX2 and FMA (elsewhere OpenCV's layers stay); any other
-// convolution or transposed convolution stays OpenCV's.
+// convolution or transposed convolution stays OpenCV's. Where the CPU also has AVX512-BF16 they
+// multiply in bfloat16 with float sums (twice the multiply-adds per cycle; inputs and weights
+// rounded to 8 bits of mantissa, so outputs move by about 1 % of their spread, not by float
+// rounding); layers with fewer than 8 outputs stay in float.
 #include <opencv2/dnn.hpp>
 
 #include <mutex>
@@ -29,12 +32,15 @@ struct DnnLayers {
   bool depthwise = true;
   bool subpixel_deconvolution = true;
   bool pointwise = true;
-  static DnnLayers opencv() { return {false, false, false, false}; }
+  bool bfloat16_products = true;  // the two product stand-ins in bfloat16 where the CPU has it
+  static DnnLayers opencv() { return {false, false, false, false, false}; }
   bool any() const { return vectorised_selu || depthwise || subpixel_deconvolution || pointwise; }
 };
 
-// Whether this CPU runs the transposed and 1x1 convolution stand-ins (x86-64 with AVX2 and FMA).
+// Whether this CPU runs the transposed and 1x1 convolution stand-ins (x86-64 with AVX2 and FMA),
+// and whether in bfloat16 (AVX512F and AVX512-BF16).
 bool matrix_product_layers_supported();
+bool bfloat16_products_supported();
 
 // selu(x) = gamma * (max(x, 0) + alpha * (exp(min(x, 0)) - 1)), for n floats (in place allowed).
 void selu_vectorised(const float* src, float* dst, int n, float alpha, float gamma);
