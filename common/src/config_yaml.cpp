@@ -252,6 +252,7 @@ void visit(V& v, SemanticConfig& c) {
   v.field("model", c.model);
   v.field("border", c.border, between(0.0, 0.45));
   v.field("threads", c.threads, between(0, 64));
+  v.field("bfloat16", c.bfloat16);
 }
 
 template <class V>

@@ -2,7 +2,6 @@
 
 #include "keyfleet/agent/semantic_score.hpp"
 #include "keyfleet/agent/text_regions.hpp"
-#include "keyfleet/vision/model_files.hpp"
 
 #include <opencv2/imgproc.hpp>
 
@@ -220,8 +219,7 @@ std::unique_ptr<KeyframeSelector> make_selector(const SelectorConfig& config, do
   std::unique_ptr<vision::TextSegmenter> segmenter;
   if (config.strategy == SelectorConfig::Strategy::kSemantic ||
       config.strategy == SelectorConfig::Strategy::kFull)
-    segmenter = std::make_unique<vision::DnnTextSegmenter>(
-        vision::locate_model(config.semantic.model, "segmenter model"), config.semantic.threads);
+    segmenter = vision::make_text_segmenter(config.semantic);
   return std::make_unique<HierarchicalSelector>(config, std::move(trigger), std::move(segmenter),
                                                 clock);
 }

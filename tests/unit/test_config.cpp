@@ -364,6 +364,7 @@ TEST(ConfigRoundTrip, AgentToYamlParsesBackToTheSameValues) {
   c.source.height = 200;
   c.source.seed = 18446744073709551557ULL;  // needs all 64 bits
   c.selector.trigger.stride = 7;
+  c.selector.semantic.bfloat16 = false;
   c.codec.jpeg_quality = 42;
   c.ledger.baseline_sample_every = 3;
   c.outbox.path = "box.sqlite";
@@ -392,6 +393,7 @@ TEST(ConfigRoundTrip, AgentToYamlParsesBackToTheSameValues) {
   EXPECT_EQ(back.source.height, c.source.height);
   EXPECT_EQ(back.source.seed, c.source.seed);
   EXPECT_EQ(back.selector.trigger.stride, c.selector.trigger.stride);
+  EXPECT_EQ(back.selector.semantic.bfloat16, c.selector.semantic.bfloat16);
   EXPECT_EQ(back.codec.jpeg_quality, c.codec.jpeg_quality);
   EXPECT_EQ(back.ledger.baseline_sample_every, c.ledger.baseline_sample_every);
   EXPECT_EQ(back.outbox.path, c.outbox.path);

@@ -81,6 +81,26 @@ cv::Mat rounded_to_bfloat16(const cv::Mat& m) {
   return out;
 }
 
+// A random layer of shape `s`: input in [-2, 2], weights (of `weight_shape`) and bias in [-1, 1].
+struct RandomLayer {
+  cv::Mat input, weights, bias;
+  RandomLayer(cv::RNG& rng, const Shape& s, const std::vector<int>& weight_shape)
+      : input({2, s.cin, s.h, s.w}, CV_32F), weights(weight_shape, CV_32F) {
+    rng.fill(input, cv::RNG::UNIFORM, -2, 2);
+    rng.fill(weights, cv::RNG::UNIFORM, -1, 1);
+    if (s.bias) {
+      bias.create(1, s.cout, CV_32F);
+      rng.fill(bias, cv::RNG::UNIFORM, -1, 1);
+    }
+  }
+  // What a bfloat16 stand-in multiplies, when `type` is one.
+  void round_if_bfloat16(const std::string& type) {
+    if (type.size() < 4 || type.substr(type.size() - 4) != "Bf16") return;
+    input = rounded_to_bfloat16(input);
+    weights = rounded_to_bfloat16(weights);
+  }
+};
+
 // The precisions a stand-in runs in here: float, and bfloat16 where the CPU has it.
 std::vector<bool> precisions() {
   if (bfloat16_products_supported()) return {false, true};
@@ -110,21 +130,14 @@ TEST(SubpixelDeconvolution, MatchesOpenCvsTransposedConvolution) {
   cv::RNG rng(11);
   for (const bool bfloat16 : precisions())
     for (const Shape& s : shapes) {
-      cv::Mat input({2, s.cin, s.h, s.w}, CV_32F), weights({s.cin, s.cout, 3, 3}, CV_32F), bias;
-      rng.fill(input, cv::RNG::UNIFORM, -2, 2);
-      rng.fill(weights, cv::RNG::UNIFORM, -1, 1);
-      if (s.bias) {
-        bias.create(1, s.cout, CV_32F);
-        rng.fill(bias, cv::RNG::UNIFORM, -1, 1);
-      }
+      RandomLayer l(rng, s, {s.cin, s.cout, 3, 3});
       std::string type;
-      const cv::Mat got = deconvolve(input, weights, bias, {}, s.selu, stand_ins(bfloat16), &type);
+      const cv::Mat got =
+          deconvolve(l.input, l.weights, l.bias, {}, s.selu, stand_ins(bfloat16), &type);
       EXPECT_EQ(type, stand_in_type("KeyfleetSubpixelDeconvolution", bfloat16, s.cout));
-      if (type.size() > 4 && type.substr(type.size() - 4) == "Bf16") {
-        input = rounded_to_bfloat16(input);
-        weights = rounded_to_bfloat16(weights);
-      }
-      const cv::Mat expected = deconvolve(input, weights, bias, {}, s.selu, DnnLayers::opencv());
+      l.round_if_bfloat16(type);
+      const cv::Mat expected =
+          deconvolve(l.input, l.weights, l.bias, {}, s.selu, DnnLayers::opencv());
       ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
       EXPECT_EQ(cv::dnn::shape(got), (cv::dnn::MatShape{2, s.cout, 2 * s.h, 2 * s.w}));
       // Sums of up to 4 x cin products of magnitude <= 2, in another order than OpenCV's
@@ -173,21 +186,14 @@ TEST(PointwiseStandIn, MatchesOpenCvsConvolution) {
   cv::RNG rng(14);
   for (const bool bfloat16 : precisions())
     for (const Shape& s : shapes) {
-      cv::Mat input({2, s.cin, s.h, s.w}, CV_32F), weights({s.cout, s.cin, 1, 1}, CV_32F), bias;
-      rng.fill(input, cv::RNG::UNIFORM, -2, 2);
-      rng.fill(weights, cv::RNG::UNIFORM, -1, 1);
-      if (s.bias) {
-        bias.create(1, s.cout, CV_32F);
-        rng.fill(bias, cv::RNG::UNIFORM, -1, 1);
-      }
+      RandomLayer l(rng, s, {s.cout, s.cin, 1, 1});
       std::string type;
-      const cv::Mat got = convolve_1x1(input, weights, bias, s.selu, stand_ins(bfloat16), &type);
+      const cv::Mat got =
+          convolve_1x1(l.input, l.weights, l.bias, s.selu, stand_ins(bfloat16), &type);
       EXPECT_EQ(type, stand_in_type("KeyfleetPointwise", bfloat16, s.cout));
-      if (type.size() > 4 && type.substr(type.size() - 4) == "Bf16") {
-        input = rounded_to_bfloat16(input);
-        weights = rounded_to_bfloat16(weights);
-      }
-      const cv::Mat expected = convolve_1x1(input, weights, bias, s.selu, DnnLayers::opencv());
+      l.round_if_bfloat16(type);
+      const cv::Mat expected =
+          convolve_1x1(l.input, l.weights, l.bias, s.selu, DnnLayers::opencv());
       ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
       EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * s.cin * 2 + 1e-6)
           << s.cin << " -> " << s.cout << ", " << s.w << "x" << s.h << ", " << type;

@@ -75,15 +75,20 @@ bool product_supported() {
 #endif
 }
 
-ProductBlock ProductBlock::least_padding(int rows, int columns) {
-  ProductBlock best{6, 16};
+ProductBlock ProductBlock::least_padding(int rows, int columns,
+                                         std::initializer_list<ProductBlock> shapes) {
+  ProductBlock best = *shapes.begin();
   long least = -1;
-  for (const ProductBlock block : {ProductBlock{6, 16}, ProductBlock{4, 24}, ProductBlock{2, 48}}) {
+  for (const ProductBlock block : shapes) {
     const long padded = long((rows + block.rows - 1) / block.rows * block.rows) *
                         ((columns + block.columns - 1) / block.columns * block.columns);
     if (least < 0 || padded < least) best = block, least = padded;
   }
   return best;
+}
+
+ProductBlock float_product_block(int rows, int columns) {
+  return ProductBlock::least_padding(rows, columns, {{6, 16}, {4, 24}, {2, 48}});
 }
 
 void product_block(ProductBlock block, int taps, const float* a, std::size_t a_tap_stride,

@@ -7,17 +7,23 @@
 // convolution's phase, or a 1x1 convolution with one tap at shift 0), with its 12
 // accumulators in registers.
 #include <cstddef>
+#include <initializer_list>
 
 namespace keyfleet::vision {
 
 bool product_supported();  // x86-64 with AVX2 and FMA
 
 struct ProductBlock {
-  int rows;     // output rows per block: 6, 4 or 2
-  int columns;  // columns per block: 96 / rows (12 accumulators of 8 floats)
-  // The shape that pads `rows` x `columns` the least (ties: more rows, fewer loads per product).
-  static ProductBlock least_padding(int rows, int columns);
+  int rows;     // output rows per block
+  int columns;  // columns per block
+  // Of `shapes`, the one that pads `rows` x `columns` the least (ties: the first).
+  static ProductBlock least_padding(int rows, int columns,
+                                    std::initializer_list<ProductBlock> shapes);
 };
+
+// The float kernel's block for `rows` x `columns`: 6 x 16, 4 x 24 or 2 x 48 (12 accumulators of
+// 8 floats), the least padding (ties: more rows, fewer loads per product).
+ProductBlock float_product_block(int rows, int columns);
 
 // taps: 1, 2 or 4; shifts[taps]. Reads columns [0, block.columns) of b at each shift.
 void product_block(ProductBlock block, int taps, const float* a, std::size_t a_tap_stride,

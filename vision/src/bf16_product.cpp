@@ -107,16 +107,8 @@ bool bf16_product_supported() {
 #endif
 }
 
-ProductBlock bf16_least_padding(int rows, int columns) {
-  ProductBlock best{6, 64};
-  long least = -1;
-  for (const ProductBlock block :
-       {ProductBlock{6, 64}, ProductBlock{8, 48}, ProductBlock{4, 96}, ProductBlock{12, 32}}) {
-    const long padded = long((rows + block.rows - 1) / block.rows * block.rows) *
-                        ((columns + block.columns - 1) / block.columns * block.columns);
-    if (least < 0 || padded < least) best = block, least = padded;
-  }
-  return best;
+ProductBlock bf16_product_block(int rows, int columns) {
+  return ProductBlock::least_padding(rows, columns, {{6, 64}, {8, 48}, {4, 96}, {12, 32}});
 }
 
 std::uint32_t bf16_pair(float low, float high) { return bf16_bits(low) | (bf16_bits(high) << 16); }

@@ -16,9 +16,9 @@ namespace keyfleet::vision {
 
 bool bf16_product_supported();  // x86-64 with AVX512F and AVX512-BF16
 
-// Block shapes: rows x columns with 24 accumulators of 16 floats; the one that pads `rows` x
-// `columns` the least (ties: the first of 6 x 64, 8 x 48, 4 x 96, 12 x 32).
-ProductBlock bf16_least_padding(int rows, int columns);
+// The block for `rows` x `columns`: 6 x 64, 8 x 48, 4 x 96 or 12 x 32 (24 accumulators of 16
+// floats), the least padding (ties: in that order).
+ProductBlock bf16_product_block(int rows, int columns);
 
 // The pair of two floats, each rounded to the nearest bfloat16 (ties to even).
 std::uint32_t bf16_pair(float low, float high);

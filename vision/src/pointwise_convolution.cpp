@@ -45,7 +45,7 @@ int PointwiseConvolution::summed() const { return bfloat16_ ? (cin_ + 1) / 2 : c
 void PointwiseConvolution::run(const float* src, int pixels, float* dst,
                                const cv::dnn::ActivationLayer* activation) {
   const ProductBlock block =
-      bfloat16_ ? bf16_least_padding(cout_, pixels) : ProductBlock::least_padding(cout_, pixels);
+      bfloat16_ ? bf16_product_block(cout_, pixels) : float_product_block(cout_, pixels);
   if (block.rows != block_.rows) pack(block);
   const int width = block_.columns;
   const int columns = (pixels + width - 1) / width * width;

@@ -119,8 +119,8 @@ void SubpixelDeconvolution::run(const float* src, int h, int w, float* dst,
   // the input's edge) and the columns a last block reads beyond that; products are computed on
   // the padded width (the extra column's results are dropped).
   padded_width_ = w + 1;
-  const ProductBlock block = bfloat16_ ? bf16_least_padding(cout_, h * padded_width_)
-                                       : ProductBlock::least_padding(cout_, h * padded_width_);
+  const ProductBlock block = bfloat16_ ? bf16_product_block(cout_, h * padded_width_)
+                                       : float_product_block(cout_, h * padded_width_);
   if (block.rows != rows_per_block_) pack(block);
   columns_ = round_up(h * padded_width_, lanes_per_block_);
   plane_ = std::size_t(round_up(columns_ + padded_width_ + 1, 16));

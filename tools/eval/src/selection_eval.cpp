@@ -8,7 +8,6 @@
 
 #include "keyfleet/common/clock.hpp"
 #include "keyfleet/common/error.hpp"
-#include "keyfleet/vision/model_files.hpp"
 
 namespace keyfleet::eval {
 namespace {
@@ -169,9 +168,7 @@ SelectionEvaluation evaluate_selection(const std::string& scenario_dir, const st
     config.strategy = strategy;
     agent::StageClock clock;
     std::unique_ptr<vision::TextSegmenter> segmenter;
-    if (is_semantic(strategy))
-      segmenter = std::make_unique<vision::DnnTextSegmenter>(
-          vision::locate_model(config.semantic.model, "segmenter model"), config.semantic.threads);
+    if (is_semantic(strategy)) segmenter = vision::make_text_segmenter(config.semantic);
     const auto selected = select_on_keyframes(frames, keyframes, config, segmenter.get(), &clock);
 
     StrategyResult result;

@@ -112,6 +112,10 @@ struct SemanticConfig {
   std::string model = "mininet_text.onnx";
   double border = 0.1;  // border band, as a fraction of the mask's smaller side
   int threads = 1;      // OpenCV DNN threads
+  // The transposed and 1x1 convolutions in bfloat16 (float sums) where the CPU has AVX512-BF16:
+  // about 1.5x faster on one thread; logits move by ~0.01 on average, a few boundary pixels of a
+  // mask change. false: float, OpenCV's own logits to float rounding.
+  bool bfloat16 = true;
 };
 
 // Text regions sent with each keyframe as hints for the station's reader: the connected

@@ -4,9 +4,11 @@
 #include <opencv2/core.hpp>
 #include <opencv2/dnn.hpp>
 
+#include "keyfleet/common/config.hpp"
 #include "keyfleet/vision/dnn_layers.hpp"
 
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -41,9 +43,10 @@ class DnnTextSegmenter final : public TextSegmenter {
   // file, or a network that does not take that input or gives the wrong output shape, is a
   // StartupError naming the file.
   // `input_size` overrides the description's (for evaluations at other resolutions).
-  // `layers`: keyfleet's stand-ins for OpenCV's SELU, depthwise and transposed convolutions
-  // (dnn_layers.hpp), the same outputs to float rounding; together MiniNet's forward pass at
-  // 512x256 on one thread takes under half as long (`keyfleet segmenter eval` compares them).
+  // `layers`: keyfleet's stand-ins for OpenCV's SELU, depthwise, 1x1 and transposed
+  // convolutions (dnn_layers.hpp), in float the same outputs to float rounding; together MiniNet's
+  // forward pass at 512x256 on one thread takes about 0.4x as long in float, 0.28x in bfloat16
+  // (`keyfleet segmenter eval` compares them).
   DnnTextSegmenter(const std::string& model_path, int threads,
                    std::optional<cv::Size> input_size = std::nullopt, DnnLayers layers = {});
   std::vector<cv::Mat> segment(const std::vector<cv::Mat>& bgr_frames) override;
@@ -56,5 +59,8 @@ class DnnTextSegmenter final : public TextSegmenter {
   SegmenterInfo info_;
   cv::dnn::Net net_;
 };
+
+// The segmenter a SemanticConfig describes (its model looked up as locate_model does).
+std::unique_ptr<DnnTextSegmenter> make_text_segmenter(const SemanticConfig& config);
 
 }  // namespace keyfleet::vision
