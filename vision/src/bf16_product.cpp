@@ -107,6 +107,8 @@ bool bf16_product_supported() {
 #endif
 }
 
+bool bf16_product_pays(int outputs) { return outputs >= 8 && bf16_product_supported(); }
+
 ProductBlock bf16_product_block(int rows, int columns) {
   return ProductBlock::least_padding(rows, columns, {{6, 64}, {8, 48}, {4, 96}, {12, 32}});
 }

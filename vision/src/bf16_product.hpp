@@ -16,6 +16,10 @@ namespace keyfleet::vision {
 
 bool bf16_product_supported();  // x86-64 with AVX512F and AVX512-BF16
 
+// Whether a layer with `outputs` channels should multiply in bfloat16: the CPU has it and there
+// are at least 8 outputs (fewer would not repay converting the input to pairs).
+bool bf16_product_pays(int outputs);
+
 // The block for `rows` x `columns`: 6 x 64, 8 x 48, 4 x 96 or 12 x 32 (24 accumulators of 16
 // floats), the least padding (ties: in that order).
 ProductBlock bf16_product_block(int rows, int columns);

@@ -18,7 +18,6 @@ class PointwiseConvolution {
   // weights: output channels x input channels x 1 x 1, float; bias: empty or one per output;
   // bfloat16 as for SubpixelDeconvolution.
   PointwiseConvolution(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16);
-  static constexpr int kLeastBfloat16Outputs = 8;
 
   int input_channels() const { return cin_; }
   int output_channels() const { return cout_; }

@@ -27,7 +27,7 @@ SubpixelDeconvolution::SubpixelDeconvolution(const cv::Mat& weights, const cv::M
                                              bool bfloat16)
     : cin_(weights.size[0]),
       cout_(weights.size[1]),
-      bfloat16_(bfloat16 && bf16_product_supported() && cout_ >= kLeastBfloat16Outputs),
+      bfloat16_(bfloat16 && bf16_product_pays(cout_)),
       weights_(weights) {
   CV_Assert(weights.dims == 4 && weights.type() == CV_32F && weights.isContinuous() &&
             weights.size[2] == 3 && weights.size[3] == 3);

@@ -23,10 +23,8 @@ class SubpixelDeconvolution {
 
   // weights: input channels x output channels x 3 x 3 (ONNX ConvTranspose's layout), float;
   // bias: empty or one float per output channel. bfloat16: multiply in bfloat16 pairs (sums in
-  // float; bf16_product.hpp) where the CPU has AVX512-BF16 and there are at least
-  // kLeastBfloat16Outputs output channels (fewer would not repay converting the input).
+  // float) where bf16_product_pays (the CPU has AVX512-BF16, 8 or more output channels).
   SubpixelDeconvolution(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16);
-  static constexpr int kLeastBfloat16Outputs = 8;
 
   int input_channels() const { return cin_; }
   int output_channels() const { return cout_; }
