@@ -12,6 +12,7 @@
 #include <cstring>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "keyfleet/vision/dnn_layers.hpp"
@@ -198,6 +199,51 @@ TEST(PointwiseStandIn, MatchesOpenCvsConvolution) {
       EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * s.cin * 2 + 1e-6)
           << s.cin << " -> " << s.cout << ", " << s.w << "x" << s.h << ", " << type;
     }
+}
+
+// A 1x1 convolution followed by a chain of two activations (x 2, then + 1: OpenCV offers both to
+// the convolution in turn): the stand-in takes over the first and leaves the second a layer of its
+// own, so both are applied (before, the second replaced the first).
+TEST(PointwiseStandIn, AChainOfActivationsAfterItIsAppliedWhole) {
+  if (!matrix_product_layers_supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layer stays";
+  cv::RNG rng(15);
+  const Shape s{16, 12, 4, 8, true, false};
+  RandomLayer l(rng, s, {s.cout, s.cin, 1, 1});
+  const auto run = [&](DnnLayers layers, std::string* type) {
+    cv::dnn::LayerParams conv;
+    conv.name = "conv";
+    conv.type = "Convolution";
+    conv.set("num_output", s.cout);
+    const int kernel[] = {1, 1};
+    conv.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
+    conv.set("bias_term", true);
+    conv.blobs = {l.weights, l.bias};
+    std::optional<DnnLayersScope> scope;
+    if (layers.any()) scope.emplace(layers);
+    cv::dnn::Net net;
+    net.addLayerToPrev(conv.name, conv.type, conv);
+    for (const auto& [name, scale, shift] :
+         {std::tuple{"times_two", 2.f, 0.f}, std::tuple{"plus_one", 1.f, 1.f}}) {
+      cv::dnn::LayerParams power;
+      power.name = name;
+      power.type = "Power";
+      power.set("scale", scale);
+      power.set("shift", shift);
+      net.addLayerToPrev(power.name, power.type, power);
+    }
+    net.setInput(l.input);
+    const cv::Mat out = net.forward().clone();
+    if (type) *type = net.getLayer("conv")->type;
+    return out;
+  };
+  const cv::Mat expected = run(DnnLayers::opencv(), nullptr);
+  for (const bool bfloat16 : precisions()) {
+    std::string type;
+    const cv::Mat got = run(stand_ins(bfloat16), &type);
+    EXPECT_EQ(type, stand_in_type("KeyfleetPointwise", bfloat16, s.cout));
+    const double tolerance = bfloat16 ? 0.1 : 1e-4;  // sums of 16 products, then doubled
+    EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), tolerance) << type;
+  }
 }
 
 // Batched frames reach the transposed convolutions as slices of concatenated blobs (images not

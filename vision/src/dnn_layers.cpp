@@ -203,7 +203,10 @@ class ProductLayer : public cv::dnn::Layer {
     type = std::string(layer_type) + (kernel_.bfloat16() ? "Bf16" : "");
   }
 
+  // One activation is taken over; OpenCV offers each of a chain in turn (a scale then a shift),
+  // and a second one refused stays a layer of its own.
   bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
+    if (!layer.empty() && !activation_.empty()) return false;
     activation_ = layer;
     return !activation_.empty();
   }
