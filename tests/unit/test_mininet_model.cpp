@@ -87,11 +87,6 @@ cv::Mat shipped_logits(const cv::Mat& blob, DnnLayers layers) {
   return net.forward().clone();
 }
 
-DnnLayers in_float(DnnLayers layers) {
-  layers.bfloat16_products = false;
-  return layers;
-}
-
 // keyfleet's float stand-ins for OpenCV's layers against OpenCV's own on the shipped network:
 // the same logits to float rounding, and so the same masks but for the odd tie.
 TEST(ShippedMiniNet, FloatStandInLayersGiveOpenCvsLogits) {
@@ -105,12 +100,12 @@ TEST(ShippedMiniNet, FloatStandInLayersGiveOpenCvsLogits) {
   for (const DnnLayers layers :
        {DnnLayers{true, false, false, false, false}, DnnLayers{false, true, false, false, false},
         DnnLayers{false, false, true, false, false}, DnnLayers{false, false, false, true, false},
-        in_float(DnnLayers{})})
+        DnnLayers::in_float()})
     EXPECT_LT(cv::norm(opencv, shipped_logits(blob, layers), cv::NORM_INF), 1e-3)
         << "selu " << layers.vectorised_selu << ", depthwise " << layers.depthwise << ", sub-pixel "
         << layers.subpixel_deconvolution << ", pointwise " << layers.pointwise;
   DnnTextSegmenter a(path, 1, std::nullopt, DnnLayers::opencv());
-  DnnTextSegmenter b(path, 1, std::nullopt, in_float(DnnLayers{}));
+  DnnTextSegmenter b(path, 1, std::nullopt, DnnLayers::in_float());
   const cv::Mat ma = a.segment({frame}).at(0), mb = b.segment({frame}).at(0);
   EXPECT_LE(cv::countNonZero(ma != mb), int(1e-4 * size.area()))
       << cv::countNonZero(ma) << " text pixels";

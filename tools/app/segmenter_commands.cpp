@@ -168,8 +168,7 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
     variants.push_back(
         {path, name + ", SELU + depthwise", vision::DnnLayers{true, true, false, false, false}});
     if (vision::bfloat16_products_supported()) {
-      variants.push_back({path, name + ", all stand-ins, float",
-                          vision::DnnLayers{true, true, true, true, false}});
+      variants.push_back({path, name + ", all stand-ins, float", vision::DnnLayers::in_float()});
       variants.push_back({path, name + ", all stand-ins, bfloat16", vision::DnnLayers{}});
     } else {
       variants.push_back({path, name + ", all stand-ins", vision::DnnLayers{}});

@@ -34,6 +34,8 @@ struct DnnLayers {
   bool pointwise = true;
   bool bfloat16_products = true;  // the two product stand-ins in bfloat16 where the CPU has it
   static DnnLayers opencv() { return {false, false, false, false, false}; }
+  // All stand-ins in float: OpenCV's outputs to float rounding, on any CPU.
+  static DnnLayers in_float() { return {true, true, true, true, false}; }
   bool any() const { return vectorised_selu || depthwise || subpixel_deconvolution || pointwise; }
 };
 
