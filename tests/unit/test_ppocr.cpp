@@ -3,16 +3,19 @@
 // reader on hostile images, missing files and real word crops.
 #include <gtest/gtest.h>
 
+#include <opencv2/dnn.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <optional>
+#include <tuple>
 
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/eval/text_dataset_eval.hpp"
 #include "keyfleet/station/text/text_reader.hpp"
+#include "keyfleet/vision/dnn_layers.hpp"
 #include "keyfleet/vision/model_files.hpp"
 #include "ppocr_detector.hpp"
 #include "ppocr_recognizer.hpp"
@@ -354,6 +357,29 @@ TEST(PpocrReaderWithModels, ReadsAPrintedWordInAKeyframe) {
     // The box holds the drawn text (x 120.., baseline 260, about 65 px tall).
     EXPECT_NEAR(words[0].box.x, 120, 25);
     EXPECT_NEAR(words[0].box.y + words[0].box.height, 260, 25);
+  }
+}
+
+// The station runs both networks on keyfleet's float stand-in layers: on a random input they give
+// OpenCV's own outputs to float rounding (the recogniser chains activations after its 1x1
+// convolutions: a stand-in that dropped one was off by 0.45).
+TEST(PpocrReaderWithModels, StandInLayersGiveOpenCvsOutputs) {
+  KEYFLEET_REQUIRE_PPOCR_MODELS();
+  for (const auto& [file, height, width] : {std::tuple{"ppocr_det_640x480.onnx", 480, 640},
+                                            std::tuple{"ppocr_rec_w320.onnx", 48, 320}}) {
+    const int shape[] = {1, 3, height, width};
+    cv::Mat input(4, shape, CV_32F);
+    cv::randu(input, -1, 1);
+    const auto forward = [&](bool stand_ins) {
+      std::optional<vision::DnnLayersScope> scope;
+      if (stand_ins) scope.emplace(vision::DnnLayers::in_float());
+      cv::dnn::Net net = cv::dnn::readNetFromONNX((*models / file).string());
+      net.setInput(input);
+      return net.forward().clone();
+    };
+    const cv::Mat opencv = forward(false), ours = forward(true);
+    ASSERT_EQ(opencv.total(), ours.total()) << file;
+    EXPECT_LT(cv::norm(opencv, ours, cv::NORM_INF), 1e-4) << file;
   }
 }
 

@@ -14,10 +14,10 @@
 // - 1x1 convolution (stride 1, one group): the same matrix product, the activation applied
 //   while the columns are in cache.
 // The last two need x86-64 with AVX2 and FMA (elsewhere OpenCV's layers stay); any other
-// convolution or transposed convolution stays OpenCV's. Where the CPU also has AVX512-BF16 they
-// multiply in bfloat16 with float sums (twice the multiply-adds per cycle; inputs and weights
-// rounded to 8 bits of mantissa, so outputs move by about 1 % of their spread, not by float
-// rounding); layers with fewer than 8 outputs stay in float.
+// convolution or transposed convolution stays OpenCV's. With `bfloat16_products`, where the CPU
+// also has AVX512-BF16, they multiply in bfloat16 with float sums (twice the multiply-adds per
+// cycle; inputs and weights rounded to 8 bits of mantissa, so outputs move by about 1 % of their
+// spread, not by float rounding); layers with fewer than 8 outputs stay in float.
 #include <opencv2/dnn.hpp>
 
 #include <mutex>
