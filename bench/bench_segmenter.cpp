@@ -30,7 +30,7 @@ void BM_Segment(benchmark::State& state) {
     return;
   }
   const vision::DnnLayers layers{state.range(0) >= 1, state.range(0) >= 2, state.range(0) >= 3,
-                                 state.range(0) >= 3, state.range(0) >= 4};
+                                 state.range(0) >= 3, state.range(0) >= 4, state.range(0) >= 3};
   const int threads = int(state.range(1));
   const cv::Size size(512, int(state.range(2)));
   vision::DnnTextSegmenter net(model(), threads, size, layers);

@@ -98,9 +98,10 @@ TEST(ShippedMiniNet, FloatStandInLayersGiveOpenCvsLogits) {
   cv::setNumThreads(1);
   const cv::Mat opencv = shipped_logits(blob, DnnLayers::opencv());
   for (const DnnLayers layers :
-       {DnnLayers{true, false, false, false, false}, DnnLayers{false, true, false, false, false},
-        DnnLayers{false, false, true, false, false}, DnnLayers{false, false, false, true, false},
-        DnnLayers::in_float()})
+       {DnnLayers{true, false, false, false, false, false},
+        DnnLayers{false, true, false, false, false, false},
+        DnnLayers{false, false, true, false, false, false},
+        DnnLayers{false, false, false, true, false, false}, DnnLayers::in_float()})
     EXPECT_LT(cv::norm(opencv, shipped_logits(blob, layers), cv::NORM_INF), 1e-3)
         << "selu " << layers.vectorised_selu << ", depthwise " << layers.depthwise << ", sub-pixel "
         << layers.subpixel_deconvolution << ", pointwise " << layers.pointwise;

@@ -201,6 +201,49 @@ TEST(PointwiseStandIn, MatchesOpenCvsConvolution) {
     }
 }
 
+cv::Mat convolve_3x3(const cv::Mat& input, const cv::Mat& weights, const cv::Mat& bias, bool selu,
+                     DnnLayers layers, int stride, std::string* type = nullptr) {
+  cv::dnn::LayerParams params;
+  params.type = "Convolution";
+  params.set("num_output", weights.size[0]);
+  const int kernel[] = {3, 3}, strides[] = {stride, stride}, pads[] = {1, 1, 1, 1};
+  params.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
+  params.set("stride", cv::dnn::DictValue::arrayInt(strides, 2));
+  params.set("pad", cv::dnn::DictValue::arrayInt(pads, 4));
+  return run_layer(params, input, weights, bias, selu, layers, type);
+}
+
+TEST(Convolution3x3StandIn, MatchesOpenCvsConvolution) {
+  if (!matrix_product_layers_supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layer stays";
+  // Output channels in whole and partial blocks of every shape; planes of one pixel, one row,
+  // one column and wider than a block; odd input channels.
+  const std::vector<Shape> shapes = {
+      {3, 12, 8, 16, true, true}, {16, 24, 5, 7, false, false}, {5, 4, 1, 1, true, false},
+      {7, 2, 1, 30, false, true}, {9, 5, 30, 1, true, true},    {64, 96, 12, 20, true, false},
+      {33, 8, 6, 9, false, true}, {96, 256, 3, 4, true, false}, {20, 36, 15, 40, true, true}};
+  cv::RNG rng(16);
+  for (const bool bfloat16 : precisions())
+    for (const Shape& s : shapes) {
+      RandomLayer l(rng, s, {s.cout, s.cin, 3, 3});
+      std::string type;
+      const cv::Mat got =
+          convolve_3x3(l.input, l.weights, l.bias, s.selu, stand_ins(bfloat16), 1, &type);
+      EXPECT_EQ(type, stand_in_type("KeyfleetConvolution3x3", bfloat16, s.cout));
+      l.round_if_bfloat16(type);
+      const cv::Mat expected =
+          convolve_3x3(l.input, l.weights, l.bias, s.selu, DnnLayers::opencv(), 1);
+      ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
+      // Sums of up to 9 x cin products of magnitude <= 2, in another order than OpenCV's.
+      EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * 9 * s.cin * 2 + 1e-6)
+          << s.cin << " -> " << s.cout << ", " << s.w << "x" << s.h << ", " << type;
+    }
+  // Stride 2 stays OpenCV's.
+  RandomLayer l(rng, {4, 6, 8, 8, false, false}, {6, 4, 3, 3});
+  std::string type;
+  convolve_3x3(l.input, l.weights, l.bias, false, stand_ins(false), 2, &type);
+  EXPECT_EQ(type, "Convolution");
+}
+
 // A 1x1 convolution followed by a chain of two activations (x 2, then + 1: OpenCV offers both to
 // the convolution in turn): the stand-in takes over the first and leaves the second a layer of its
 // own, so both are applied (before, the second replaced the first).

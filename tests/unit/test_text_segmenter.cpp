@@ -143,7 +143,9 @@ TEST(DepthwiseStandIn, MatchesOpenCvsConvolutionForKernelsDilationsAndPaddings) 
       if (width + c.pads[1] + c.pads[3] < c.dw * (c.kw - 1) + 1) continue;  // no output column
       const cv::Mat expected = convolve(input, weights, bias, params, DnnLayers::opencv());
       std::string type;
-      const cv::Mat got = convolve(input, weights, bias, params, DnnLayers{}, &type);
+      DnnLayers no_dense_stand_in;  // the last case is test_product_layers' dense 3x3 one
+      no_dense_stand_in.dense_3x3 = false;
+      const cv::Mat got = convolve(input, weights, bias, params, no_dense_stand_in, &type);
       EXPECT_EQ(type, c.depthwise && c.stride == 1 ? "KeyfleetDepthwise" : "Convolution");
       ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected)) << "width " << width;
       EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-5)

@@ -59,6 +59,9 @@ void tile_for_taps(int taps, const float* a, std::size_t a_tap_stride, const flo
     case 2:
       tile<kRows, kVectors, 2>(a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride);
       break;
+    case 9:
+      tile<kRows, kVectors, 9>(a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride);
+      break;
     default:
       tile<kRows, kVectors, 4>(a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride);
   }

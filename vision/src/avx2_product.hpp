@@ -25,7 +25,7 @@ struct ProductBlock {
 // 8 floats), the least padding (ties: more rows, fewer loads per product).
 ProductBlock float_product_block(int rows, int columns);
 
-// taps: 1, 2 or 4; shifts[taps]. Reads columns [0, block.columns) of b at each shift.
+// taps: 1, 2, 4 or 9; shifts[taps]. Reads columns [0, block.columns) of b at each shift.
 void product_block(ProductBlock block, int taps, const float* a, std::size_t a_tap_stride,
                    const float* b, const int* shifts, int depth, std::size_t plane,
                    const float* bias, float* out, std::size_t out_stride);

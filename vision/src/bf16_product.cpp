@@ -68,6 +68,9 @@ void tile_for_taps(int taps, const std::uint32_t* a, std::size_t a_tap_stride,
     case 2:
       tile<kRows, kVectors, 2>(a, a_tap_stride, b, shifts, pairs, plane, bias, out, out_stride);
       break;
+    case 9:
+      tile<kRows, kVectors, 9>(a, a_tap_stride, b, shifts, pairs, plane, bias, out, out_stride);
+      break;
     default:
       tile<kRows, kVectors, 4>(a, a_tap_stride, b, shifts, pairs, plane, bias, out, out_stride);
   }

@@ -33,7 +33,7 @@ std::uint32_t bf16_pair(float low, float high);
 void pack_bf16_pairs(const float* src, int channels, int rows, int width, std::uint32_t* dst,
                      std::size_t dst_plane, int dst_row_stride);
 
-// taps: 1, 2 or 4; shifts[taps]. Reads columns [0, block.columns) of b at each shift.
+// taps: 1, 2, 4 or 9; shifts[taps]. Reads columns [0, block.columns) of b at each shift.
 void product_block_bf16(ProductBlock block, int taps, const std::uint32_t* a,
                         std::size_t a_tap_stride, const std::uint32_t* b, const int* shifts,
                         int pairs, std::size_t plane, const float* bias, float* out,

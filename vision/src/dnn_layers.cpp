@@ -10,6 +10,7 @@
 #include <string>
 
 #include "bf16_product.hpp"
+#include "convolution_3x3.hpp"
 #include "pointwise_convolution.hpp"
 #include "selu_avx2.hpp"
 #include "subpixel_deconvolution.hpp"
@@ -264,13 +265,50 @@ class PointwiseLayer final : public ProductLayer<PointwiseConvolution> {
   }
 };
 
-template <bool kDepthwise, bool kPointwise>
+// Dense 3x3 convolution, stride 1, padding 1, one group, by nine taps of the matrix product; an
+// activation after it is applied as each plane is done.
+class Convolution3x3Layer final : public ProductLayer<Convolution3x3> {
+ public:
+  explicit Convolution3x3Layer(const cv::dnn::LayerParams& params)
+      : ProductLayer(params, "KeyfleetConvolution3x3") {}
+
+  static bool handles(const cv::dnn::LayerParams& params,
+                      const cv::dnn::BaseConvolutionLayer& geometry) {
+    if (!product_supported() || params.blobs.empty() || params.blobs[0].dims != 4 ||
+        params.blobs[0].type() != CV_32F)
+      return false;
+    const cv::Mat& w = params.blobs[0];
+    return both_are(geometry.kernel_size, 3) && both_are(geometry.strides, 1) &&
+           both_are(geometry.dilations, 1) && both_are(geometry.pads_begin, 1) &&
+           both_are(geometry.pads_end, 1) && geometry.padMode.empty() &&
+           params.get<int>("group", 1) == 1 && geometry.numOutput == w.size[0] &&
+           (params.blobs.size() < 2 || int(params.blobs[1].total()) == w.size[0]);
+  }
+
+  bool getMemoryShapes(const std::vector<cv::dnn::MatShape>& inputs, int,
+                       std::vector<cv::dnn::MatShape>& outputs,
+                       std::vector<cv::dnn::MatShape>&) const override {
+    const cv::dnn::MatShape& in = inputs.at(0);
+    CV_Assert(in.size() == 4 && in[1] == kernel_.input_channels());
+    outputs = {{in[0], kernel_.output_channels(), in[2], in[3]}};
+    return false;
+  }
+
+  void run(const float* in, int height, int width, float* out) override {
+    kernel_.run(in, height, width, out, activation_.get());
+  }
+};
+
+// The scope's stand-in for a convolution of that geometry, else OpenCV's.
 cv::Ptr<cv::dnn::Layer> create_convolution(cv::dnn::LayerParams& params) {
+  const DnnLayers& chosen = scope_layers();
   cv::Ptr<cv::dnn::BaseConvolutionLayer> opencv = cv::dnn::ConvolutionLayer::create(params);
-  if (kDepthwise && DepthwiseLayer::handles(params, *opencv))
+  if (chosen.depthwise && DepthwiseLayer::handles(params, *opencv))
     return cv::makePtr<DepthwiseLayer>(params, *opencv);
-  if (kPointwise && PointwiseLayer::handles(params, *opencv))
+  if (chosen.pointwise && PointwiseLayer::handles(params, *opencv))
     return cv::makePtr<PointwiseLayer>(params);
+  if (chosen.dense_3x3 && Convolution3x3Layer::handles(params, *opencv))
+    return cv::makePtr<Convolution3x3Layer>(params);
   return opencv;
 }
 
@@ -330,10 +368,8 @@ DnnLayersScope::DnnLayersScope(DnnLayers layers) : lock_(scope_mutex()) {
   scope_layers() = layers;
   const std::pair<bool, std::pair<const char*, cv::dnn::LayerFactory::Constructor>> chosen[] = {
       {layers.vectorised_selu, {"Selu", VectorisedSeluLayer::create}},
-      {layers.depthwise || layers.pointwise,
-       {"Convolution", layers.depthwise ? layers.pointwise ? create_convolution<true, true>
-                                                           : create_convolution<true, false>
-                                        : create_convolution<false, true>}},
+      {layers.depthwise || layers.pointwise || layers.dense_3x3,
+       {"Convolution", create_convolution}},
       {layers.subpixel_deconvolution, {"Deconvolution", create_deconvolution}}};
   try {
     for (const auto& [use, layer] : chosen)

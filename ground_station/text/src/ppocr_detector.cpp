@@ -172,8 +172,8 @@ PpocrDetector::PpocrDetector(const std::string& model_path, cv::Size input_size,
       input_size.height % 32 != 0)
     throw StartupError("ppocr detector: input size " + std::to_string(input_size.width) + "x" +
                        std::to_string(input_size.height) + " is not a multiple of 32");
-  // keyfleet's float stand-ins for OpenCV's 1x1 and depthwise convolutions: the same map to
-  // float rounding in about 0.88x the time. OpenCV creates the layers on import and on the
+  // keyfleet's float stand-ins for OpenCV's 1x1, dense 3x3 and depthwise convolutions: the same
+  // map to float rounding in about 0.7x the time. OpenCV creates the layers on import and on the
   // first pass (the probe below), so the scope covers both.
   const vision::DnnLayersScope stand_ins(vision::DnnLayers::in_float());
   try {

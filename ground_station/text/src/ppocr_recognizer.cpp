@@ -192,7 +192,7 @@ PpocrRecognizer::PpocrRecognizer(const std::map<int, std::string>& models_by_wid
   if (options.latin_only) options_.allowed = ppocr::latin_classes(classes_);
   options_.space_probability = options.space_probability;
   if (models_by_width.empty()) throw StartupError("ppocr recogniser: no model files");
-  // keyfleet's float stand-ins for OpenCV's 1x1 and depthwise convolutions: the same
+  // keyfleet's float stand-ins for OpenCV's 1x1, dense 3x3 and depthwise convolutions: the same
   // probabilities to float rounding in about 0.7x the time; the scope covers the import and the
   // first pass of each network (OpenCV creates layers in both).
   const vision::DnnLayersScope stand_ins(vision::DnnLayers::in_float());

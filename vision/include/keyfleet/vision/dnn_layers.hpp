@@ -13,7 +13,9 @@
 //   in place (no zero taps, no scatter).
 // - 1x1 convolution (stride 1, one group): the same matrix product, the activation applied
 //   while the columns are in cache.
-// The last two need x86-64 with AVX2 and FMA (elsewhere OpenCV's layers stay); any other
+// - dense 3x3 convolution (stride 1, padding 1, one group): the same matrix product with nine
+//   taps over a bordered copy of the input.
+// The last three need x86-64 with AVX2 and FMA (elsewhere OpenCV's layers stay); any other
 // convolution or transposed convolution stays OpenCV's. With `bfloat16_products`, where the CPU
 // also has AVX512-BF16, they multiply in bfloat16 with float sums (twice the multiply-adds per
 // cycle; inputs and weights rounded to 8 bits of mantissa, so outputs move by about 1 % of their
@@ -32,11 +34,14 @@ struct DnnLayers {
   bool depthwise = true;
   bool subpixel_deconvolution = true;
   bool pointwise = true;
-  bool bfloat16_products = true;  // the two product stand-ins in bfloat16 where the CPU has it
-  static DnnLayers opencv() { return {false, false, false, false, false}; }
+  bool bfloat16_products = true;  // the product stand-ins in bfloat16 where the CPU has it
+  bool dense_3x3 = true;
+  static DnnLayers opencv() { return {false, false, false, false, false, false}; }
   // All stand-ins in float: OpenCV's outputs to float rounding, on any CPU.
-  static DnnLayers in_float() { return {true, true, true, true, false}; }
-  bool any() const { return vectorised_selu || depthwise || subpixel_deconvolution || pointwise; }
+  static DnnLayers in_float() { return {true, true, true, true, false, true}; }
+  bool any() const {
+    return vectorised_selu || depthwise || subpixel_deconvolution || pointwise || dense_3x3;
+  }
 };
 
 // Whether this CPU runs the transposed and 1x1 convolution stand-ins (x86-64 with AVX2 and FMA),

@@ -1,0 +1,114 @@
+#include "convolution_3x3.hpp"
+
+#include <algorithm>
+
+namespace keyfleet::vision {
+namespace {
+
+int round_up(int value, int multiple) { return (value + multiple - 1) / multiple * multiple; }
+
+}  // namespace
+
+Convolution3x3::Convolution3x3(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16)
+    : cin_(weights.size[1]),
+      cout_(weights.size[0]),
+      bfloat16_(bfloat16 && bf16_product_pays(cout_)),
+      weights_(weights) {
+  CV_Assert(weights.dims == 4 && weights.type() == CV_32F && weights.isContinuous() &&
+            weights.size[2] == 3 && weights.size[3] == 3);
+  CV_Assert(bias.empty() || (bias.type() == CV_32F && int(bias.total()) == cout_));
+  bias_.assign(std::size_t(round_up(cout_, 24)), 0.f);
+  for (int c = 0; c < cout_ && !bias.empty(); ++c) bias_[c] = bias.ptr<float>()[c];
+}
+
+int Convolution3x3::summed() const { return bfloat16_ ? (cin_ + 1) / 2 : cin_; }
+
+void Convolution3x3::pack(ProductBlock block) {
+  block_ = block;
+  row_blocks_ = (cout_ + block.rows - 1) / block.rows;
+  const int depth = summed();
+  const std::size_t size = std::size_t(row_blocks_) * 9 * depth * block.rows;
+  packed_.assign(bfloat16_ ? 0 : size, 0.f);
+  packed_pairs_.assign(bfloat16_ ? size : 0, 0u);
+  const float* w = weights_.ptr<float>();  // [cout][cin][3][3]
+  const auto weight = [&](int co, int ci, int tap) {
+    return ci < cin_ ? w[(std::size_t(co) * cin_ + ci) * 9 + tap] : 0.f;
+  };
+  for (int co = 0; co < cout_; ++co)
+    for (int tap = 0; tap < 9; ++tap)
+      for (int k = 0; k < depth; ++k) {
+        const std::size_t at =
+            ((std::size_t(co / block.rows) * 9 + tap) * depth + k) * block.rows + co % block.rows;
+        if (bfloat16_)
+          packed_pairs_[at] = bf16_pair(weight(co, 2 * k, tap), weight(co, 2 * k + 1, tap));
+        else
+          packed_[at] = weight(co, k, tap);
+      }
+}
+
+void Convolution3x3::multiply(int block_begin, int block_end) {
+  // The summed dimension in chunks whose columns of a block (all taps) stay within about 16 KB.
+  const int total = summed();
+  const int most = std::max(8, 4096 / (9 * block_.columns));
+  const int chunks = (total + most - 1) / most, depth = (total + chunks - 1) / chunks;
+  const std::size_t tap_stride = std::size_t(total) * block_.rows;
+  for (int k0 = 0; k0 < total; k0 += depth) {
+    const int k = std::min(depth, total - k0);
+    for (int block = block_begin; block < block_end; ++block) {
+      const int n0 = block * block_.columns;
+      for (int rb = 0; rb < row_blocks_; ++rb) {
+        const std::size_t a = (std::size_t(rb) * 9 * total + k0) * block_.rows;
+        const float* bias = k0 == 0 ? bias_.data() + rb * block_.rows : nullptr;
+        float* o = products_.data() + std::size_t(rb) * block_.rows * columns_ + n0;
+        if (bfloat16_)
+          product_block_bf16(block_, 9, packed_pairs_.data() + a, tap_stride,
+                             padded_pairs_.data() + k0 * plane_ + n0, shifts_, k, plane_, bias, o,
+                             columns_);
+        else
+          product_block(block_, 9, packed_.data() + a, tap_stride,
+                        padded_.data() + k0 * plane_ + n0, shifts_, k, plane_, bias, o, columns_);
+      }
+    }
+  }
+}
+
+void Convolution3x3::run(const float* src, int h, int w, float* dst,
+                         const cv::dnn::ActivationLayer* activation) {
+  // Each plane gets a zero border (a column either side, a row above and below); products are
+  // computed on the bordered width from the top-left of the border, so output (y, x) is column
+  // y * (w + 2) + x and the two columns past w of each row are dropped.
+  const int width = w + 2;
+  const ProductBlock block =
+      bfloat16_ ? bf16_product_block(cout_, h * width) : float_product_block(cout_, h * width);
+  if (block.rows != block_.rows) pack(block);
+  columns_ = round_up(h * width, block_.columns);
+  plane_ = std::size_t(round_up(columns_ + 2 * width + 2, 16));
+  for (int ky = 0; ky < 3; ++ky)
+    for (int kx = 0; kx < 3; ++kx) shifts_[ky * 3 + kx] = ky * width + kx;
+  if (bfloat16_) {
+    padded_pairs_.assign(std::size_t(summed()) * plane_, 0u);
+    pack_bf16_pairs(src, cin_, h, w, padded_pairs_.data() + width + 1, plane_, width);
+  } else {
+    padded_.assign(std::size_t(cin_) * plane_, 0.f);
+    for (int c = 0; c < cin_; ++c)
+      for (int y = 0; y < h; ++y)
+        std::copy_n(src + (std::size_t(c) * h + y) * w, w,
+                    padded_.data() + c * plane_ + std::size_t(y + 1) * width + 1);
+  }
+  products_.resize(std::size_t(row_blocks_) * block_.rows * columns_);
+  cv::parallel_for_(cv::Range(0, columns_ / block_.columns),
+                    [&](const cv::Range& blocks) { multiply(blocks.start, blocks.end); });
+
+  const std::size_t out_plane = std::size_t(h) * w;
+  cv::parallel_for_(cv::Range(0, cout_), [&](const cv::Range& channels) {
+    for (int c = channels.start; c < channels.end; ++c) {
+      float* plane = dst + c * out_plane;
+      for (int y = 0; y < h; ++y)
+        std::copy_n(products_.data() + std::size_t(c) * columns_ + std::size_t(y) * width, w,
+                    plane + std::size_t(y) * w);
+      if (activation) activation->forwardSlice(plane, plane, int(out_plane), out_plane, c, c + 1);
+    }
+  });
+}
+
+}  // namespace keyfleet::vision

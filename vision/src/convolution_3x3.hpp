@@ -1,0 +1,55 @@
+#pragma once
+// A 3x3 convolution with stride 1, padding 1 and one group (PP-OCR's and PlaceNet's dense 3x3
+// layers) as one matrix product of nine taps over the input read in place: each plane gets a
+// zero border, and output pixel (y, x) sums tap (ky, kx) of the input at (y + ky, x + kx) of the
+// bordered plane, a fixed shift along its rows. Internal to keyfleet_vision (dnn_layers.cpp wraps
+// it).
+#include <opencv2/core.hpp>
+#include <opencv2/dnn/all_layers.hpp>
+
+#include <cstdint>
+#include <vector>
+
+#include "avx2_product.hpp"
+#include "bf16_product.hpp"
+
+namespace keyfleet::vision {
+
+class Convolution3x3 {
+ public:
+  // weights: output channels x input channels x 3 x 3, float; bias: empty or one per output;
+  // bfloat16 as for SubpixelDeconvolution.
+  Convolution3x3(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16);
+
+  int input_channels() const { return cin_; }
+  int output_channels() const { return cout_; }
+  bool bfloat16() const { return bfloat16_; }
+
+  // One image: src is input_channels planes of h x w, dst output_channels planes of h x w, each
+  // set contiguous; `activation` (may be null) is applied to each output plane once written.
+  // Runs on cv::parallel_for_'s threads. Not reentrant (work buffers).
+  void run(const float* src, int h, int w, float* dst, const cv::dnn::ActivationLayer* activation);
+
+ private:
+  void pack(ProductBlock block);  // the weights for blocks of that shape
+  void multiply(int block_begin, int block_end);
+  int summed() const;  // the length of the summed dimension: input channels, or their pairs
+
+  int cin_, cout_;
+  bool bfloat16_;
+  cv::Mat weights_;
+  std::vector<float> bias_;  // padded to whole row blocks of any shape
+  ProductBlock block_{0, 0};
+  int row_blocks_ = 0;
+  // [row block][tap][input channel or pair][block_.rows]: floats or bfloat16 pairs
+  std::vector<float> packed_;
+  std::vector<std::uint32_t> packed_pairs_;
+  // Per run: the bordered input (floats or pairs), the products on the bordered width.
+  int shifts_[9] = {};
+  int columns_ = 0;
+  std::size_t plane_ = 0;
+  std::vector<float> padded_, products_;
+  std::vector<std::uint32_t> padded_pairs_;
+};
+
+}  // namespace keyfleet::vision
