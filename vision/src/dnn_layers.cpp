@@ -231,33 +231,47 @@ class ProductLayer : public cv::dnn::Layer {
   cv::Ptr<cv::dnn::ActivationLayer> activation_;
 };
 
-// 1x1 convolution, stride 1, no padding, one group, by avx2_product.hpp; an activation after it
-// is applied as each stripe of columns is done.
-class PointwiseLayer final : public ProductLayer<PointwiseConvolution> {
- public:
-  explicit PointwiseLayer(const cv::dnn::LayerParams& params)
-      : ProductLayer(params, "KeyfleetPointwise") {}
+// A float convolution with one group, stride 1 and dilation 1 whose k x k kernel keeps the plane's
+// size (padding k / 2 on every side): what the same-size product stand-ins take over.
+bool same_size_convolution(const cv::dnn::LayerParams& params,
+                           const cv::dnn::BaseConvolutionLayer& geometry, int k) {
+  if (!product_supported() || params.blobs.empty() || params.blobs[0].dims != 4 ||
+      params.blobs[0].type() != CV_32F)
+    return false;
+  const cv::Mat& w = params.blobs[0];
+  return both_are(geometry.kernel_size, k) && both_are(geometry.strides, 1) &&
+         both_are(geometry.dilations, 1) && both_are(geometry.pads_begin, k / 2) &&
+         both_are(geometry.pads_end, k / 2) && geometry.padMode.empty() &&
+         params.get<int>("group", 1) == 1 && geometry.numOutput == w.size[0] &&
+         (params.blobs.size() < 2 || int(params.blobs[1].total()) == w.size[0]);
+}
 
-  static bool handles(const cv::dnn::LayerParams& params,
-                      const cv::dnn::BaseConvolutionLayer& geometry) {
-    if (!product_supported() || params.blobs.empty() || params.blobs[0].dims != 4 ||
-        params.blobs[0].type() != CV_32F)
-      return false;
-    const cv::Mat& w = params.blobs[0];
-    return both_are(geometry.kernel_size, 1) && both_are(geometry.strides, 1) &&
-           both_are(geometry.dilations, 1) && both_are(geometry.pads_begin, 0) &&
-           both_are(geometry.pads_end, 0) && geometry.padMode.empty() &&
-           params.get<int>("group", 1) == 1 && geometry.numOutput == w.size[0] &&
-           (params.blobs.size() < 2 || int(params.blobs[1].total()) == w.size[0]);
-  }
+// A product stand-in whose output planes have the input's size.
+template <class Kernel>
+class SameSizeLayer : public ProductLayer<Kernel> {
+ public:
+  using ProductLayer<Kernel>::ProductLayer;
 
   bool getMemoryShapes(const std::vector<cv::dnn::MatShape>& inputs, int,
                        std::vector<cv::dnn::MatShape>& outputs,
                        std::vector<cv::dnn::MatShape>&) const override {
     const cv::dnn::MatShape& in = inputs.at(0);
-    CV_Assert(in.size() == 4 && in[1] == kernel_.input_channels());
-    outputs = {{in[0], kernel_.output_channels(), in[2], in[3]}};
+    CV_Assert(in.size() == 4 && in[1] == this->kernel_.input_channels());
+    outputs = {{in[0], this->kernel_.output_channels(), in[2], in[3]}};
     return false;
+  }
+};
+
+// 1x1 convolution, stride 1, no padding, one group, by avx2_product.hpp; an activation after it
+// is applied as each stripe of columns is done.
+class PointwiseLayer final : public SameSizeLayer<PointwiseConvolution> {
+ public:
+  explicit PointwiseLayer(const cv::dnn::LayerParams& params)
+      : SameSizeLayer(params, "KeyfleetPointwise") {}
+
+  static bool handles(const cv::dnn::LayerParams& params,
+                      const cv::dnn::BaseConvolutionLayer& geometry) {
+    return same_size_convolution(params, geometry, 1);
   }
 
   void run(const float* in, int height, int width, float* out) override {
@@ -267,31 +281,14 @@ class PointwiseLayer final : public ProductLayer<PointwiseConvolution> {
 
 // Dense 3x3 convolution, stride 1, padding 1, one group, by nine taps of the matrix product; an
 // activation after it is applied as each plane is done.
-class Convolution3x3Layer final : public ProductLayer<Convolution3x3> {
+class Convolution3x3Layer final : public SameSizeLayer<Convolution3x3> {
  public:
   explicit Convolution3x3Layer(const cv::dnn::LayerParams& params)
-      : ProductLayer(params, "KeyfleetConvolution3x3") {}
+      : SameSizeLayer(params, "KeyfleetConvolution3x3") {}
 
   static bool handles(const cv::dnn::LayerParams& params,
                       const cv::dnn::BaseConvolutionLayer& geometry) {
-    if (!product_supported() || params.blobs.empty() || params.blobs[0].dims != 4 ||
-        params.blobs[0].type() != CV_32F)
-      return false;
-    const cv::Mat& w = params.blobs[0];
-    return both_are(geometry.kernel_size, 3) && both_are(geometry.strides, 1) &&
-           both_are(geometry.dilations, 1) && both_are(geometry.pads_begin, 1) &&
-           both_are(geometry.pads_end, 1) && geometry.padMode.empty() &&
-           params.get<int>("group", 1) == 1 && geometry.numOutput == w.size[0] &&
-           (params.blobs.size() < 2 || int(params.blobs[1].total()) == w.size[0]);
-  }
-
-  bool getMemoryShapes(const std::vector<cv::dnn::MatShape>& inputs, int,
-                       std::vector<cv::dnn::MatShape>& outputs,
-                       std::vector<cv::dnn::MatShape>&) const override {
-    const cv::dnn::MatShape& in = inputs.at(0);
-    CV_Assert(in.size() == 4 && in[1] == kernel_.input_channels());
-    outputs = {{in[0], kernel_.output_channels(), in[2], in[3]}};
-    return false;
+    return same_size_convolution(params, geometry, 3);
   }
 
   void run(const float* in, int height, int width, float* out) override {
