@@ -3,47 +3,24 @@
 #include <algorithm>
 
 namespace keyfleet::vision {
-namespace {
-
-int round_up(int value, int multiple) { return (value + multiple - 1) / multiple * multiple; }
-
-}  // namespace
-
 Convolution3x3::Convolution3x3(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16)
     : cin_(weights.size[1]),
       cout_(weights.size[0]),
       bfloat16_(bfloat16 && bf16_product_pays(cout_)),
-      weights_(weights) {
+      weights_(weights),
+      bias_(padded_bias(bias, cout_)) {
   CV_Assert(weights.dims == 4 && weights.type() == CV_32F && weights.isContinuous() &&
             weights.size[2] == 3 && weights.size[3] == 3);
-  CV_Assert(bias.empty() || (bias.type() == CV_32F && int(bias.total()) == cout_));
-  bias_.assign(std::size_t(round_up(cout_, 24)), 0.f);
-  for (int c = 0; c < cout_ && !bias.empty(); ++c) bias_[c] = bias.ptr<float>()[c];
 }
 
-int Convolution3x3::summed() const { return bfloat16_ ? (cin_ + 1) / 2 : cin_; }
+int Convolution3x3::summed() const { return summed_length(cin_, bfloat16_); }
 
 void Convolution3x3::pack(ProductBlock block) {
   block_ = block;
   row_blocks_ = (cout_ + block.rows - 1) / block.rows;
-  const int depth = summed();
-  const std::size_t size = std::size_t(row_blocks_) * 9 * depth * block.rows;
-  packed_.assign(bfloat16_ ? 0 : size, 0.f);
-  packed_pairs_.assign(bfloat16_ ? size : 0, 0u);
   const float* w = weights_.ptr<float>();  // [cout][cin][3][3]
-  const auto weight = [&](int co, int ci, int tap) {
-    return ci < cin_ ? w[(std::size_t(co) * cin_ + ci) * 9 + tap] : 0.f;
-  };
-  for (int co = 0; co < cout_; ++co)
-    for (int tap = 0; tap < 9; ++tap)
-      for (int k = 0; k < depth; ++k) {
-        const std::size_t at =
-            ((std::size_t(co / block.rows) * 9 + tap) * depth + k) * block.rows + co % block.rows;
-        if (bfloat16_)
-          packed_pairs_[at] = bf16_pair(weight(co, 2 * k, tap), weight(co, 2 * k + 1, tap));
-        else
-          packed_[at] = weight(co, k, tap);
-      }
+  packed_.pack(block, 9, cin_, cout_, bfloat16_,
+               [&](int co, int ci, int tap) { return w[(std::size_t(co) * cin_ + ci) * 9 + tap]; });
 }
 
 void Convolution3x3::multiply(int block_begin, int block_end) {
@@ -61,11 +38,11 @@ void Convolution3x3::multiply(int block_begin, int block_end) {
         const float* bias = k0 == 0 ? bias_.data() + rb * block_.rows : nullptr;
         float* o = products_.data() + std::size_t(rb) * block_.rows * columns_ + n0;
         if (bfloat16_)
-          product_block_bf16(block_, 9, packed_pairs_.data() + a, tap_stride,
+          product_block_bf16(block_, 9, packed_.pairs.data() + a, tap_stride,
                              padded_pairs_.data() + k0 * plane_ + n0, shifts_, k, plane_, bias, o,
                              columns_);
         else
-          product_block(block_, 9, packed_.data() + a, tap_stride,
+          product_block(block_, 9, packed_.floats.data() + a, tap_stride,
                         padded_.data() + k0 * plane_ + n0, shifts_, k, plane_, bias, o, columns_);
       }
     }

@@ -12,6 +12,7 @@
 
 #include "avx2_product.hpp"
 #include "bf16_product.hpp"
+#include "packed_weights.hpp"
 
 namespace keyfleet::vision {
 
@@ -38,12 +39,10 @@ class Convolution3x3 {
   int cin_, cout_;
   bool bfloat16_;
   cv::Mat weights_;
-  std::vector<float> bias_;  // padded to whole row blocks of any shape
+  std::vector<float> bias_;  // padded_bias
   ProductBlock block_{0, 0};
   int row_blocks_ = 0;
-  // [row block][tap][input channel or pair][block_.rows]: floats or bfloat16 pairs
-  std::vector<float> packed_;
-  std::vector<std::uint32_t> packed_pairs_;
+  PackedWeights packed_;
   // Per run: the bordered input (floats or pairs), the products on the bordered width.
   int shifts_[9] = {};
   int columns_ = 0;

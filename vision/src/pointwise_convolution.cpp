@@ -10,37 +10,21 @@ PointwiseConvolution::PointwiseConvolution(const cv::Mat& weights, const cv::Mat
     : cin_(weights.size[1]),
       cout_(weights.size[0]),
       bfloat16_(bfloat16 && bf16_product_pays(cout_)),
-      weights_(weights) {
+      weights_(weights),
+      bias_(padded_bias(bias, cout_)) {
   CV_Assert(weights.dims == 4 && weights.type() == CV_32F && weights.isContinuous() &&
             weights.size[2] == 1 && weights.size[3] == 1);
-  CV_Assert(bias.empty() || (bias.type() == CV_32F && int(bias.total()) == cout_));
-  bias_.assign(std::size_t((cout_ + 23) / 24 * 24), 0.f);
-  for (int c = 0; c < cout_ && !bias.empty(); ++c) bias_[c] = bias.ptr<float>()[c];
 }
 
 void PointwiseConvolution::pack(ProductBlock block) {
   block_ = block;
   row_blocks_ = (cout_ + block_.rows - 1) / block_.rows;
-  const int depth = summed();
-  const std::size_t size = std::size_t(row_blocks_) * depth * block_.rows;
-  packed_.assign(bfloat16_ ? 0 : size, 0.f);
-  packed_pairs_.assign(bfloat16_ ? size : 0, 0u);
   const float* w = weights_.ptr<float>();  // [cout][cin]
-  const auto weight = [&](int co, int ci) {
-    return ci < cin_ ? w[std::size_t(co) * cin_ + ci] : 0.f;
-  };
-  for (int co = 0; co < cout_; ++co)
-    for (int k = 0; k < depth; ++k) {
-      const std::size_t at =
-          (std::size_t(co / block_.rows) * depth + k) * block_.rows + co % block_.rows;
-      if (bfloat16_)
-        packed_pairs_[at] = bf16_pair(weight(co, 2 * k), weight(co, 2 * k + 1));
-      else
-        packed_[at] = weight(co, k);
-    }
+  packed_.pack(block, 1, cin_, cout_, bfloat16_,
+               [&](int co, int ci, int) { return w[std::size_t(co) * cin_ + ci]; });
 }
 
-int PointwiseConvolution::summed() const { return bfloat16_ ? (cin_ + 1) / 2 : cin_; }
+int PointwiseConvolution::summed() const { return summed_length(cin_, bfloat16_); }
 
 void PointwiseConvolution::run(const float* src, int pixels, float* dst,
                                const cv::dnn::ActivationLayer* activation) {
@@ -88,11 +72,11 @@ void PointwiseConvolution::run(const float* src, int pixels, float* dst,
             const float* bias = k0 == 0 ? bias_.data() + rb * block_.rows : nullptr;
             float* o = out + std::size_t(rb) * block_.rows * columns + blk * width;
             if (bfloat16_)
-              product_block_bf16(block_, 1, packed_pairs_.data() + a, 0, padded_pairs_.data() + at,
+              product_block_bf16(block_, 1, packed_.pairs.data() + a, 0, padded_pairs_.data() + at,
                                  &zero_shift, k, columns, bias, o, columns);
             else
-              product_block(block_, 1, packed_.data() + a, 0, b + at, &zero_shift, k, columns, bias,
-                            o, columns);
+              product_block(block_, 1, packed_.floats.data() + a, 0, b + at, &zero_shift, k,
+                            columns, bias, o, columns);
           }
       }
       const int n0 = first * width, n1 = std::min(pixels, last * width);

@@ -10,6 +10,7 @@
 
 #include "avx2_product.hpp"
 #include "bf16_product.hpp"
+#include "packed_weights.hpp"
 
 namespace keyfleet::vision {
 
@@ -34,12 +35,11 @@ class PointwiseConvolution {
   int cin_, cout_;
   bool bfloat16_;
   cv::Mat weights_;
-  std::vector<float> bias_;  // padded to whole row blocks of any shape
+  std::vector<float> bias_;  // padded_bias
   // The block shape the weights are packed for (chosen per input size: the least padding).
   ProductBlock block_{0, 0};
   int row_blocks_ = 0;
-  std::vector<float> packed_;                // [row block][input channel][block_.rows]
-  std::vector<std::uint32_t> packed_pairs_;  // [row block][input pair][block_.rows] (bfloat16)
+  PackedWeights packed_;
   // Used when the columns or rows do not fill whole blocks: the input with zero columns after
   // each plane, and the products before they go to dst.
   std::vector<float> padded_, products_;

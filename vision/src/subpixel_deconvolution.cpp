@@ -15,25 +15,21 @@ struct Tap {
 constexpr Tap kPhase0[] = {{0, 1}};
 constexpr Tap kPhase1[] = {{0, 2}, {1, 0}};
 
-int round_up(int value, int multiple) { return (value + multiple - 1) / multiple * multiple; }
-
 }  // namespace
 
 bool SubpixelDeconvolution::supported() { return product_supported(); }
 
-int SubpixelDeconvolution::summed() const { return bfloat16_ ? (cin_ + 1) / 2 : cin_; }
+int SubpixelDeconvolution::summed() const { return summed_length(cin_, bfloat16_); }
 
 SubpixelDeconvolution::SubpixelDeconvolution(const cv::Mat& weights, const cv::Mat& bias,
                                              bool bfloat16)
     : cin_(weights.size[0]),
       cout_(weights.size[1]),
       bfloat16_(bfloat16 && bf16_product_pays(cout_)),
-      weights_(weights) {
+      weights_(weights),
+      bias_(padded_bias(bias, cout_)) {
   CV_Assert(weights.dims == 4 && weights.type() == CV_32F && weights.isContinuous() &&
             weights.size[2] == 3 && weights.size[3] == 3);
-  CV_Assert(bias.empty() || (bias.type() == CV_32F && int(bias.total()) == cout_));
-  bias_.assign(std::size_t(round_up(cout_, 24)), 0.f);
-  for (int c = 0; c < cout_ && !bias.empty(); ++c) bias_[c] = bias.ptr<float>()[c];
   for (int a = 0; a < 2; ++a)
     for (int b = 0; b < 2; ++b) {
       Phase& phase = phases_[a * 2 + b];
@@ -55,30 +51,11 @@ void SubpixelDeconvolution::pack(ProductBlock block) {
   lanes_per_block_ = block.columns;
   row_blocks_ = (cout_ + block.rows - 1) / block.rows;
   const float* w = weights_.ptr<float>();  // [cin][cout][3][3]
-  const int depth = summed();
-  for (Phase& phase : phases_) {
-    const auto weight = [&](int ci, int co, int t) {
-      return ci < cin_ ? w[((std::size_t(ci) * cout_ + co) * 3 + phase.kernel_rows[t]) * 3 +
-                           phase.kernel_cols[t]]
-                       : 0.f;
-    };
-    const auto at = [&](int co, int t, int k) {
-      return ((std::size_t(co / block.rows) * phase.taps + t) * depth + k) * block.rows +
-             co % block.rows;
-    };
-    const std::size_t size = std::size_t(row_blocks_) * phase.taps * depth * block.rows;
-    phase.packed.assign(bfloat16_ ? 0 : size, 0.f);
-    phase.packed_pairs.assign(bfloat16_ ? size : 0, 0u);
-    for (int co = 0; co < cout_; ++co)
-      for (int t = 0; t < phase.taps; ++t)
-        for (int k = 0; k < depth; ++k) {
-          if (bfloat16_)
-            phase.packed_pairs[at(co, t, k)] =
-                bf16_pair(weight(2 * k, co, t), weight(2 * k + 1, co, t));
-          else
-            phase.packed[at(co, t, k)] = weight(k, co, t);
-        }
-  }
+  for (Phase& phase : phases_)
+    phase.weights.pack(block, phase.taps, cin_, cout_, bfloat16_, [&](int co, int ci, int t) {
+      return w[((std::size_t(ci) * cout_ + co) * 3 + phase.kernel_rows[t]) * 3 +
+               phase.kernel_cols[t]];
+    });
 }
 
 void SubpixelDeconvolution::multiply(const Phase& phase, int block_begin, int block_end,
@@ -102,11 +79,11 @@ void SubpixelDeconvolution::multiply(const Phase& phase, int block_begin, int bl
         const float* bias = k0 == 0 ? bias_.data() + rb * shape.rows : nullptr;
         float* o = out + std::size_t(rb) * shape.rows * columns_ + n0;
         if (bfloat16_)
-          product_block_bf16(shape, phase.taps, phase.packed_pairs.data() + a, tap_stride,
+          product_block_bf16(shape, phase.taps, phase.weights.pairs.data() + a, tap_stride,
                              padded_pairs_.data() + k0 * plane_ + n0, shifts, k, plane_, bias, o,
                              columns_);
         else
-          product_block(shape, phase.taps, phase.packed.data() + a, tap_stride,
+          product_block(shape, phase.taps, phase.weights.floats.data() + a, tap_stride,
                         padded_.data() + k0 * plane_ + n0, shifts, k, plane_, bias, o, columns_);
       }
     }

@@ -13,6 +13,7 @@
 
 #include "avx2_product.hpp"
 #include "bf16_product.hpp"
+#include "packed_weights.hpp"
 
 namespace keyfleet::vision {
 
@@ -40,9 +41,7 @@ class SubpixelDeconvolution {
     int taps = 0;
     int shift_rows[4] = {}, shift_cols[4] = {};    // input offset (0 or 1) of each tap
     int kernel_rows[4] = {}, kernel_cols[4] = {};  // its place in the 3x3 kernel
-    // [row block][tap][input channel or pair][rows_per_block]: floats or bfloat16 pairs
-    std::vector<float> packed;
-    std::vector<std::uint32_t> packed_pairs;
+    PackedWeights weights;
   };
 
   void pack(ProductBlock block);  // the weights for blocks of that shape
@@ -52,7 +51,7 @@ class SubpixelDeconvolution {
   int cin_, cout_;
   bool bfloat16_;
   cv::Mat weights_;
-  std::vector<float> bias_;  // padded to whole row blocks of any shape
+  std::vector<float> bias_;  // padded_bias
   // The block shape the weights are packed for (chosen per input size: the least padding).
   int rows_per_block_ = 0, row_blocks_ = 0, lanes_per_block_ = 0;
   Phase phases_[4];  // (a, b) = (0, 0), (0, 1), (1, 0), (1, 1)
