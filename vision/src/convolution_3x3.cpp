@@ -24,10 +24,7 @@ void Convolution3x3::pack(ProductBlock block) {
 }
 
 void Convolution3x3::multiply(int block_begin, int block_end) {
-  // The summed dimension in chunks whose columns of a block (all taps) stay within about 16 KB.
-  const int total = summed();
-  const int most = std::max(8, 4096 / (9 * block_.columns));
-  const int chunks = (total + most - 1) / most, depth = (total + chunks - 1) / chunks;
+  const int total = summed(), depth = summed_chunk(total, 9, block_.columns);
   const std::size_t tap_stride = std::size_t(total) * block_.rows;
   for (int k0 = 0; k0 < total; k0 += depth) {
     const int k = std::min(depth, total - k0);
@@ -37,13 +34,7 @@ void Convolution3x3::multiply(int block_begin, int block_end) {
         const std::size_t a = (std::size_t(rb) * 9 * total + k0) * block_.rows;
         const float* bias = k0 == 0 ? bias_.data() + rb * block_.rows : nullptr;
         float* o = products_.data() + std::size_t(rb) * block_.rows * columns_ + n0;
-        if (bfloat16_)
-          product_block_bf16(block_, 9, packed_.pairs.data() + a, tap_stride,
-                             padded_pairs_.data() + k0 * plane_ + n0, shifts_, k, plane_, bias, o,
-                             columns_);
-        else
-          product_block(block_, 9, packed_.floats.data() + a, tap_stride,
-                        padded_.data() + k0 * plane_ + n0, shifts_, k, plane_, bias, o, columns_);
+        input_.multiply(block_, 9, packed_, a, tap_stride, k0, n0, shifts_, k, bias, o, columns_);
       }
     }
   }
@@ -59,19 +50,9 @@ void Convolution3x3::run(const float* src, int h, int w, float* dst,
       bfloat16_ ? bf16_product_block(cout_, h * width) : float_product_block(cout_, h * width);
   if (block.rows != block_.rows) pack(block);
   columns_ = round_up(h * width, block_.columns);
-  plane_ = std::size_t(round_up(columns_ + 2 * width + 2, 16));
   for (int ky = 0; ky < 3; ++ky)
     for (int kx = 0; kx < 3; ++kx) shifts_[ky * 3 + kx] = ky * width + kx;
-  if (bfloat16_) {
-    padded_pairs_.assign(std::size_t(summed()) * plane_, 0u);
-    pack_bf16_pairs(src, cin_, h, w, padded_pairs_.data() + width + 1, plane_, width);
-  } else {
-    padded_.assign(std::size_t(cin_) * plane_, 0.f);
-    for (int c = 0; c < cin_; ++c)
-      for (int y = 0; y < h; ++y)
-        std::copy_n(src + (std::size_t(c) * h + y) * w, w,
-                    padded_.data() + c * plane_ + std::size_t(y + 1) * width + 1);
-  }
+  input_.fill(src, cin_, h, w, bfloat16_, round_up(columns_ + 2 * width + 2, 16), width, width + 1);
   products_.resize(std::size_t(row_blocks_) * block_.rows * columns_);
   cv::parallel_for_(cv::Range(0, columns_ / block_.columns),
                     [&](const cv::Range& blocks) { multiply(blocks.start, blocks.end); });

@@ -12,7 +12,7 @@
 
 #include "avx2_product.hpp"
 #include "bf16_product.hpp"
-#include "packed_weights.hpp"
+#include "product_operands.hpp"
 
 namespace keyfleet::vision {
 
@@ -43,12 +43,11 @@ class Convolution3x3 {
   ProductBlock block_{0, 0};
   int row_blocks_ = 0;
   PackedWeights packed_;
-  // Per run: the bordered input (floats or pairs), the products on the bordered width.
+  // Per run: the bordered input, the products on the bordered width.
   int shifts_[9] = {};
   int columns_ = 0;
-  std::size_t plane_ = 0;
-  std::vector<float> padded_, products_;
-  std::vector<std::uint32_t> padded_pairs_;
+  ProductInput input_;
+  std::vector<float> products_;
 };
 
 }  // namespace keyfleet::vision

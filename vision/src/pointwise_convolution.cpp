@@ -35,16 +35,10 @@ void PointwiseConvolution::run(const float* src, int pixels, float* dst,
   const int columns = (pixels + width - 1) / width * width;
   // The input in place when its planes are whole blocks, else copied with zero columns after;
   // in bfloat16, converted to pairs with zero columns after.
-  const float* b = src;
-  if (bfloat16_) {
-    padded_pairs_.assign(std::size_t(summed()) * columns, 0u);
-    pack_bf16_pairs(src, cin_, 1, pixels, padded_pairs_.data(), columns, pixels);
-  } else if (columns != pixels) {
-    padded_.assign(std::size_t(cin_) * columns, 0.f);
-    for (int c = 0; c < cin_; ++c)
-      std::copy_n(src + std::size_t(c) * pixels, pixels, padded_.data() + std::size_t(c) * columns);
-    b = padded_.data();
-  }
+  if (bfloat16_ || columns != pixels)
+    input_.fill(src, cin_, 1, pixels, bfloat16_, columns, pixels);
+  else
+    input_.use(src, columns);
   // The products straight into dst when they fill it exactly, else into a buffer first.
   const bool direct = columns == pixels && cout_ % block_.rows == 0;
   float* out = dst;
@@ -54,9 +48,7 @@ void PointwiseConvolution::run(const float* src, int pixels, float* dst,
   }
   // Input channels in chunks whose block columns stay within about 16 KB (L1); stripes of a
   // few blocks, finished (activation included) before the next.
-  const int total = summed();
-  const int most = std::max(8, 4096 / width);
-  const int chunks = (total + most - 1) / most, depth = (total + chunks - 1) / chunks;
+  const int total = summed(), depth = summed_chunk(total, 1, width);
   constexpr int kStripe = 4;
   const int stripes = (columns / width + kStripe - 1) / kStripe;
   const int zero_shift = 0;
@@ -68,15 +60,10 @@ void PointwiseConvolution::run(const float* src, int pixels, float* dst,
         for (int blk = first; blk < last; ++blk)
           for (int rb = 0; rb < row_blocks_; ++rb) {
             const std::size_t a = (std::size_t(rb) * total + k0) * block_.rows;
-            const std::size_t at = std::size_t(k0) * columns + blk * width;
             const float* bias = k0 == 0 ? bias_.data() + rb * block_.rows : nullptr;
             float* o = out + std::size_t(rb) * block_.rows * columns + blk * width;
-            if (bfloat16_)
-              product_block_bf16(block_, 1, packed_.pairs.data() + a, 0, padded_pairs_.data() + at,
-                                 &zero_shift, k, columns, bias, o, columns);
-            else
-              product_block(block_, 1, packed_.floats.data() + a, 0, b + at, &zero_shift, k,
-                            columns, bias, o, columns);
+            input_.multiply(block_, 1, packed_, a, 0, k0, blk * width, &zero_shift, k, bias, o,
+                            columns);
           }
       }
       const int n0 = first * width, n1 = std::min(pixels, last * width);

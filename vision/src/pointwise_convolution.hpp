@@ -10,7 +10,7 @@
 
 #include "avx2_product.hpp"
 #include "bf16_product.hpp"
-#include "packed_weights.hpp"
+#include "product_operands.hpp"
 
 namespace keyfleet::vision {
 
@@ -40,10 +40,9 @@ class PointwiseConvolution {
   ProductBlock block_{0, 0};
   int row_blocks_ = 0;
   PackedWeights packed_;
-  // Used when the columns or rows do not fill whole blocks: the input with zero columns after
-  // each plane, and the products before they go to dst.
-  std::vector<float> padded_, products_;
-  std::vector<std::uint32_t> padded_pairs_;  // the input as bfloat16 pairs
+  ProductInput input_;
+  // Used when the columns or rows do not fill whole blocks: the products before they go to dst.
+  std::vector<float> products_;
 };
 
 }  // namespace keyfleet::vision

@@ -60,11 +60,7 @@ void SubpixelDeconvolution::pack(ProductBlock block) {
 
 void SubpixelDeconvolution::multiply(const Phase& phase, int block_begin, int block_end,
                                      float* out) const {
-  // The summed dimension in chunks whose columns of a block (all taps) stay within about 16 KB
-  // (L1).
-  const int total = summed();
-  const int most = std::max(8, 4096 / (phase.taps * lanes_per_block_));
-  const int chunks = (total + most - 1) / most, depth = (total + chunks - 1) / chunks;
+  const int total = summed(), depth = summed_chunk(total, phase.taps, lanes_per_block_);
   int shifts[4];
   for (int t = 0; t < phase.taps; ++t)
     shifts[t] = phase.shift_rows[t] * padded_width_ + phase.shift_cols[t];
@@ -78,13 +74,8 @@ void SubpixelDeconvolution::multiply(const Phase& phase, int block_begin, int bl
         const std::size_t a = (std::size_t(rb) * phase.taps * total + k0) * shape.rows;
         const float* bias = k0 == 0 ? bias_.data() + rb * shape.rows : nullptr;
         float* o = out + std::size_t(rb) * shape.rows * columns_ + n0;
-        if (bfloat16_)
-          product_block_bf16(shape, phase.taps, phase.weights.pairs.data() + a, tap_stride,
-                             padded_pairs_.data() + k0 * plane_ + n0, shifts, k, plane_, bias, o,
-                             columns_);
-        else
-          product_block(shape, phase.taps, phase.weights.floats.data() + a, tap_stride,
-                        padded_.data() + k0 * plane_ + n0, shifts, k, plane_, bias, o, columns_);
+        input_.multiply(shape, phase.taps, phase.weights, a, tap_stride, k0, n0, shifts, k, bias, o,
+                        columns_);
       }
     }
   }
@@ -100,17 +91,8 @@ void SubpixelDeconvolution::run(const float* src, int h, int w, float* dst,
                                        : float_product_block(cout_, h * padded_width_);
   if (block.rows != rows_per_block_) pack(block);
   columns_ = round_up(h * padded_width_, lanes_per_block_);
-  plane_ = std::size_t(round_up(columns_ + padded_width_ + 1, 16));
-  if (bfloat16_) {
-    padded_pairs_.assign(std::size_t(summed()) * plane_, 0u);
-    pack_bf16_pairs(src, cin_, h, w, padded_pairs_.data(), plane_, padded_width_);
-  } else {
-    padded_.assign(std::size_t(cin_) * plane_, 0.f);
-    for (int c = 0; c < cin_; ++c)
-      for (int y = 0; y < h; ++y)
-        std::copy_n(src + (std::size_t(c) * h + y) * w, w,
-                    padded_.data() + c * plane_ + std::size_t(y) * padded_width_);
-  }
+  input_.fill(src, cin_, h, w, bfloat16_, round_up(columns_ + padded_width_ + 1, 16),
+              padded_width_);
   const std::size_t phase_size = std::size_t(row_blocks_) * rows_per_block_ * columns_;
   products_.resize(4 * phase_size);
   cv::parallel_for_(cv::Range(0, columns_ / lanes_per_block_), [&](const cv::Range& blocks) {

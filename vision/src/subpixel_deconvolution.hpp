@@ -13,7 +13,7 @@
 
 #include "avx2_product.hpp"
 #include "bf16_product.hpp"
-#include "packed_weights.hpp"
+#include "product_operands.hpp"
 
 namespace keyfleet::vision {
 
@@ -58,9 +58,8 @@ class SubpixelDeconvolution {
   // Per run: the input with a zero column and row after each plane (floats or bfloat16 pairs),
   // the four phase products.
   int padded_width_ = 0, columns_ = 0;
-  std::size_t plane_ = 0;
-  std::vector<float> padded_, products_;
-  std::vector<std::uint32_t> padded_pairs_;
+  ProductInput input_;
+  std::vector<float> products_;
 };
 
 }  // namespace keyfleet::vision

@@ -1,0 +1,76 @@
+#include "product_operands.hpp"
+
+#include <algorithm>
+
+#include "bf16_product.hpp"
+
+namespace keyfleet::vision {
+
+std::vector<float> padded_bias(const cv::Mat& bias, int outputs) {
+  CV_Assert(bias.empty() || (bias.type() == CV_32F && int(bias.total()) == outputs));
+  std::vector<float> padded(std::size_t((outputs + 23) / 24 * 24), 0.f);
+  for (int c = 0; c < outputs && !bias.empty(); ++c) padded[c] = bias.ptr<float>()[c];
+  return padded;
+}
+
+void PackedWeights::pack(ProductBlock block, int taps, int inputs, int outputs, bool bfloat16,
+                         const std::function<float(int, int, int)>& weight) {
+  const int row_blocks = (outputs + block.rows - 1) / block.rows;
+  const int depth = summed_length(inputs, bfloat16);
+  const std::size_t size = std::size_t(row_blocks) * taps * depth * block.rows;
+  floats.assign(bfloat16 ? 0 : size, 0.f);
+  pairs.assign(bfloat16 ? size : 0, 0u);
+  for (int co = 0; co < outputs; ++co)
+    for (int t = 0; t < taps; ++t)
+      for (int k = 0; k < depth; ++k) {
+        const std::size_t i =
+            ((std::size_t(co / block.rows) * taps + t) * depth + k) * block.rows + co % block.rows;
+        if (bfloat16)
+          pairs[i] =
+              bf16_pair(weight(co, 2 * k, t), 2 * k + 1 < inputs ? weight(co, 2 * k + 1, t) : 0.f);
+        else
+          floats[i] = weight(co, k, t);
+      }
+}
+
+int summed_chunk(int total, int taps, int columns) {
+  const int most = std::max(8, 4096 / (taps * columns));
+  const int chunks = (total + most - 1) / most;
+  return (total + chunks - 1) / chunks;
+}
+
+void ProductInput::fill(const float* src, int channels, int rows, int width, bool bfloat16,
+                        std::size_t plane, int row_stride, int offset) {
+  plane_ = plane;
+  if (bfloat16) {
+    pair_buffer_.assign(std::size_t(summed_length(channels, true)) * plane, 0u);
+    pack_bf16_pairs(src, channels, rows, width, pair_buffer_.data() + offset, plane, row_stride);
+    pairs_ = pair_buffer_.data(), floats_ = nullptr;
+    return;
+  }
+  float_buffer_.assign(std::size_t(channels) * plane, 0.f);
+  for (int c = 0; c < channels; ++c)
+    for (int y = 0; y < rows; ++y)
+      std::copy_n(src + (std::size_t(c) * rows + y) * width, width,
+                  float_buffer_.data() + c * plane + offset + std::size_t(y) * row_stride);
+  floats_ = float_buffer_.data(), pairs_ = nullptr;
+}
+
+void ProductInput::use(const float* src, std::size_t plane) {
+  floats_ = src, pairs_ = nullptr, plane_ = plane;
+}
+
+void ProductInput::multiply(ProductBlock block, int taps, const PackedWeights& weights,
+                            std::size_t a, std::size_t tap_stride, int k0, int n0,
+                            const int* shifts, int depth, const float* bias, float* out,
+                            std::size_t out_stride) const {
+  const std::size_t at = std::size_t(k0) * plane_ + n0;
+  if (pairs_)
+    product_block_bf16(block, taps, weights.pairs.data() + a, tap_stride, pairs_ + at, shifts,
+                       depth, plane_, bias, out, out_stride);
+  else
+    product_block(block, taps, weights.floats.data() + a, tap_stride, floats_ + at, shifts, depth,
+                  plane_, bias, out, out_stride);
+}
+
+}  // namespace keyfleet::vision

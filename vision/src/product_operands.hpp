@@ -1,0 +1,67 @@
+#pragma once
+// What the product stand-ins (pointwise, sub-pixel and 3x3 convolutions) share: their weights
+// and input laid out for the matrix-product kernels (float or bfloat16), their bias padded to
+// whole row blocks, and the step that multiplies one block of them. Internal to keyfleet_vision.
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "avx2_product.hpp"
+
+namespace keyfleet::vision {
+
+inline int round_up(int value, int multiple) {
+  return (value + multiple - 1) / multiple * multiple;
+}
+
+// The summed dimension's length: the input channels, or their pairs in bfloat16.
+inline int summed_length(int inputs, bool bfloat16) { return bfloat16 ? (inputs + 1) / 2 : inputs; }
+
+// One float per output, zero where `bias` is empty, padded with zeros to a multiple of 24 (whole
+// row blocks of every block shape).
+std::vector<float> padded_bias(const cv::Mat& bias, int outputs);
+
+// [row block][tap][summed index][block rows]: floats, or bfloat16 pairs of input channels.
+struct PackedWeights {
+  std::vector<float> floats;
+  std::vector<std::uint32_t> pairs;
+
+  // weight(output, input, tap) for output < outputs, input < inputs, tap < taps.
+  void pack(ProductBlock block, int taps, int inputs, int outputs, bool bfloat16,
+            const std::function<float(int, int, int)>& weight);
+};
+
+// The summed dimension's chunk: chunks of it whose columns of a block (all taps) stay within
+// about 16 KB (L1), as even as they come.
+int summed_chunk(int total, int taps, int columns);
+
+// A layer's input as the kernels read it: a plane of plane() elements per summed index (input
+// channel, or pair of channels in bfloat16), zero where the source does not reach.
+class ProductInput {
+ public:
+  // src's channels (planes of rows x width, contiguous) at `offset` of their planes, rows
+  // `row_stride` apart.
+  void fill(const float* src, int channels, int rows, int width, bool bfloat16, std::size_t plane,
+            int row_stride, int offset = 0);
+  // src itself, float planes `plane` apart.
+  void use(const float* src, std::size_t plane);
+  std::size_t plane() const { return plane_; }
+
+  // out (block.rows x block.columns, rows out_stride apart) = (bias or out) + the weights'
+  // block at `a` times this input from summed index k0 and column n0, over depth summed indices
+  // and `taps` taps at their shifts (avx2_product.hpp, bf16_product.hpp).
+  void multiply(ProductBlock block, int taps, const PackedWeights& weights, std::size_t a,
+                std::size_t tap_stride, int k0, int n0, const int* shifts, int depth,
+                const float* bias, float* out, std::size_t out_stride) const;
+
+ private:
+  const float* floats_ = nullptr;
+  const std::uint32_t* pairs_ = nullptr;  // set in bfloat16 (then floats_ is null)
+  std::size_t plane_ = 0;
+  std::vector<float> float_buffer_;
+  std::vector<std::uint32_t> pair_buffer_;
+};
+
+}  // namespace keyfleet::vision
