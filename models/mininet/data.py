@@ -232,7 +232,8 @@ class Sources:
     has no copy of the data; validation views are made from the original photos in both cases).
     """
 
-    def __init__(self, pairs_dir, validation, icdar_train="", shared="", packed=""):
+    def __init__(self, pairs_dir, validation, icdar_train="", shared="", packed="",
+                 icdar_scale=ICDAR_SCALE):
         self.generated, self.icdar_train, self.blurred = [], [], []
         generated_val, real_val = [], []
         if packed:
@@ -250,14 +251,14 @@ class Sources:
             self.generated, generated_val = pairs[:-held], pairs[-held:]  # the last: other streets
             if icdar_train and os.path.isdir(os.path.join(icdar_train, "images")):
                 train_ids, val_ids = icdar_split(icdar_ids(icdar_train))
-                self.icdar_train = load_icdar(icdar_train, train_ids)
+                self.icdar_train = load_icdar(icdar_train, train_ids, icdar_scale)
                 real_val = load_icdar_full(icdar_train, val_ids)
             elif icdar_train:
                 print(f"no ICDAR training photos in {icdar_train}", flush=True)
             folder = os.path.join(shared, "icdar2015", "test_blurred") if shared else ""
             if folder and os.path.isdir(folder):
                 ids = [i for i in icdar_ids(folder) if i > 100 + BLURRED_HELD_OUT]
-                self.blurred = load_icdar(folder, ids)
+                self.blurred = load_icdar(folder, ids, icdar_scale)
             elif shared:
                 print(f"no ICDAR test_blurred photos under {shared}", flush=True)
         self.generated_val = generated_val

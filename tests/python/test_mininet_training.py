@@ -67,6 +67,18 @@ class MiniNetTraining(unittest.TestCase):
         weights, freq = data.class_weights([([(image, mask)], 1)], 0.5)
         self.assertAlmostEqual(freq[1], (mask == 1).sum() / (mask != data.IGNORE).sum())
 
+    def test_soft_iou_term_is_one_minus_the_iou_and_skips_dont_care(self):
+        target = torch.tensor([[[1, 1, 0, 0, data.IGNORE, data.IGNORE]]])
+        sure = torch.tensor([[[20.0, 20, -20, -20, 20, -20]]])
+        logits = torch.stack([-sure, sure], 1)  # text where sure > 0
+        self.assertAlmostEqual(float(train.soft_iou_loss(logits, target)), 0.0, places=5)
+        logits[0, :, 0, 2] = torch.tensor([-20.0, 20])  # one false text pixel: IoU 2/3
+        self.assertAlmostEqual(float(train.soft_iou_loss(logits, target)), 1 / 3, places=5)
+        even = torch.zeros(1, 2, 1, 6)  # p = 0.5: overlap 2 x 0.5 over union 2 + 2 x 0.5
+        self.assertAlmostEqual(float(train.soft_iou_loss(even, target)), 1 - 1 / 3, places=5)
+        nothing = torch.full((1, 1, 6), data.IGNORE)
+        self.assertEqual(float(train.soft_iou_loss(even, nothing)), 1.0)
+
     def test_a_step_batch_depends_on_the_seed_and_step_alone(self):
         rng = np.random.default_rng(0)
         pool = [(rng.integers(0, 255, (360, 640, 3), dtype=np.uint8),
@@ -120,20 +132,29 @@ class MiniNetTraining(unittest.TestCase):
                      for i in range(4)]
             x = torch.from_numpy(np.stack([b[0] for b in batch]))
             y = torch.from_numpy(np.stack([b[1] for b in batch])).long()
-            net = MiniNet(2)
-            optimizer = torch.optim.Adam(net.parameters(), lr=1e-3)
-            losses = []
-            for _ in range(15):
-                loss = F.cross_entropy(net(x), y, weight=torch.tensor(weights, dtype=torch.float32),
-                                       ignore_index=data.IGNORE)
-                optimizer.zero_grad()
-                loss.backward()
-                optimizer.step()
-                losses.append(loss.item())
-            views = [data.whole_view(i, m) for i, m in pairs[:2]]
-            scores = train.evaluate(net, views)
-            self.assertTrue(0 <= scores["iou"] <= 1)
-        self.assertLess(losses[-1], 0.7 * losses[0], f"losses {losses}")
+            for bf16, iou_loss in ((False, 0.0), (True, 1.0)):  # plain; --bf16 --iou-loss 1
+                torch.manual_seed(1)
+                net = MiniNet(2)
+                optimizer = torch.optim.Adam(net.parameters(), lr=1e-3)
+                losses, iou_terms = [], []  # the cross-entropy; the soft-IoU term
+                for _ in range(15):
+                    with torch.autocast("cpu", dtype=torch.bfloat16, enabled=bf16):
+                        logits = net(x)
+                    logits = logits.float()
+                    loss = F.cross_entropy(logits, y, ignore_index=data.IGNORE,
+                                           weight=torch.tensor(weights, dtype=torch.float32))
+                    iou_term = train.soft_iou_loss(logits, y)
+                    optimizer.zero_grad()
+                    (loss + iou_loss * iou_term).backward()
+                    optimizer.step()
+                    losses.append(loss.item())
+                    iou_terms.append(iou_term.item())
+                views = [data.whole_view(i, m) for i, m in pairs[:2]]
+                scores = train.evaluate(net, views)
+                self.assertTrue(0 <= scores["iou"] <= 1)
+                self.assertLess(losses[-1], 0.7 * losses[0], f"bf16 {bf16}: losses {losses}")
+                if iou_loss:
+                    self.assertLess(iou_terms[-1], iou_terms[0], f"soft-IoU terms {iou_terms}")
 
 
 if __name__ == "__main__":
