@@ -194,8 +194,8 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
   // Table III: the default inference path, per input size, each model. FLOPs of a fully
   // convolutional network grow with the pixel count.
   std::printf("\nTable III (default layers; ms: median of %d forward passes)\n", o.repetitions);
-  std::printf("%-9s %-24s %-9s %7s %7s %7s %7s %7s %8s %8s\n", "model", "set", "input", "images",
-              "R %", "P %", "IoU %", "GFLOPs", "ms 1 thr", "ms 2 thr");
+  std::printf("%-9s %-24s %-9s %7s %7s %7s %7s %7s %8s %8s %6s\n", "model", "set", "input",
+              "images", "R %", "P %", "IoU %", "GFLOPs", "ms 1 thr", "ms 2 thr", "rank");
   for (std::size_t m = 0; m < models.size(); ++m) {
     const std::string& path = models[m];
     const auto model_info = vision::read_segmenter_info(path);
@@ -211,14 +211,18 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
       for (const auto& set : sets) {
         if (!set.present) continue;
         const auto s = set.run(net);
-        std::printf("%-9s %-24s %4dx%-4d %7zu %7.2f %7.2f %7.2f %7.3f %8.1f %8.1f\n", label.c_str(),
-                    set.name.c_str(), size.width, size.height, s.images, 100 * s.recall,
-                    100 * s.precision, 100 * s.iou, gflops, ms1, ms2);
+        std::printf("%-9s %-24s %4dx%-4d %7zu %7.2f %7.2f %7.2f %7.3f %8.1f %8.1f %6.2f\n",
+                    label.c_str(), set.name.c_str(), size.width, size.height, s.images,
+                    100 * s.recall, 100 * s.precision, 100 * s.iou, gflops, ms1, ms2,
+                    s.frame_rank_correlation);
       }
     }
   }
   for (const auto& set : sets)
     if (!set.present) std::printf("%-24s (not found: skipped)\n", set.name.c_str());
+  std::printf(
+      "rank: Spearman's rho between each image's share of text found and its true share (does "
+      "the\nsemantic score rank frames as their text does?).\n");
   std::printf(
       "\nThe paper's MiniNet on COCO-Text: R 52.61, P 36.69, IoU 27.63, 1.06 GFLOPs, "
       "18 ms (i5-8600k).\n");

@@ -5,9 +5,12 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
+#include <stdexcept>
 #include <string_view>
 
 #include "keyfleet/common/error.hpp"
@@ -19,22 +22,40 @@ namespace fs = std::filesystem;
 
 struct Counts {
   double tp = 0, fp = 0, fn = 0;
-  std::size_t images = 0;
+  std::vector<double> found_share, true_share;  // of each image's pixels
   void add(const cv::Mat& predicted, const cv::Mat& truth) {
     tp += cv::countNonZero(predicted & truth);
     fp += cv::countNonZero(predicted & ~truth);
     fn += cv::countNonZero(~predicted & truth);
-    ++images;
+    const double area = double(truth.total());
+    found_share.push_back(cv::countNonZero(predicted) / area);
+    true_share.push_back(cv::countNonZero(truth) / area);
   }
   SegmentationScores scores() const {
     SegmentationScores s;
-    s.images = images;
+    s.images = found_share.size();
     s.recall = tp / std::max(1.0, tp + fn);
     s.precision = tp / std::max(1.0, tp + fp);
     s.iou = tp / std::max(1.0, tp + fp + fn);
+    s.frame_rank_correlation = spearman_rho(found_share, true_share);
     return s;
   }
 };
+
+std::vector<double> mean_ranks(const std::vector<double>& values) {
+  std::vector<std::size_t> order(values.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t i, std::size_t j) { return values[i] < values[j]; });
+  std::vector<double> ranks(values.size());
+  for (std::size_t first = 0; first < order.size();) {
+    std::size_t last = first;
+    while (last + 1 < order.size() && values[order[last + 1]] == values[order[first]]) ++last;
+    for (std::size_t k = first; k <= last; ++k) ranks[order[k]] = (first + last) / 2.0 + 1;
+    first = last + 1;
+  }
+  return ranks;
+}
 
 std::vector<fs::path> images_in(const std::string& folder, std::size_t max_images,
                                 const StemFilter& keep = {}) {
@@ -57,6 +78,22 @@ void score_one(vision::TextSegmenter& segmenter, const cv::Mat& image, const cv:
 }
 
 }  // namespace
+
+double spearman_rho(const std::vector<double>& a, const std::vector<double>& b) {
+  if (a.size() != b.size()) throw std::invalid_argument("spearman_rho: samples of unequal size");
+  const std::size_t n = a.size();
+  if (n < 3) return std::numeric_limits<double>::quiet_NaN();
+  const auto ra = mean_ranks(a), rb = mean_ranks(b);
+  const double mean = (n + 1) / 2.0;  // of the ranks 1..n, ties or not
+  double cov = 0, var_a = 0, var_b = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    cov += (ra[i] - mean) * (rb[i] - mean);
+    var_a += (ra[i] - mean) * (ra[i] - mean);
+    var_b += (rb[i] - mean) * (rb[i] - mean);
+  }
+  if (var_a == 0 || var_b == 0) return std::numeric_limits<double>::quiet_NaN();
+  return cov / std::sqrt(var_a * var_b);
+}
 
 SegmentationScores evaluate_on_pairs(vision::TextSegmenter& segmenter, const std::string& folder,
                                      std::size_t max_images) {

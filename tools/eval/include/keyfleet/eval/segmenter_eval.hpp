@@ -11,7 +11,15 @@ namespace keyfleet::eval {
 struct SegmentationScores {
   std::size_t images = 0;
   double recall = 0, precision = 0, iou = 0;  // of the text class, pixels pooled over images
+  // Whether the share of text found ranks the images as their true share of text does (what a
+  // semantic keyframe score needs): Spearman's rho over the images, NaN below 3 images or when
+  // either side is constant.
+  double frame_rank_correlation = 0;
 };
+
+// Spearman's rank correlation of paired samples (tied values share their mean rank); NaN when
+// there are fewer than 3 pairs or either side is constant.
+double spearman_rho(const std::vector<double>& a, const std::vector<double>& b);
 
 // images/NNNNNN.jpg + masks/NNNNNN.png pairs (keyfleet scenario training output).
 SegmentationScores evaluate_on_pairs(vision::TextSegmenter& segmenter, const std::string& folder,
