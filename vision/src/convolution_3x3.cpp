@@ -3,17 +3,6 @@
 #include <algorithm>
 
 namespace keyfleet::vision {
-Convolution3x3::Convolution3x3(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16)
-    : cin_(weights.size[1]),
-      cout_(weights.size[0]),
-      bfloat16_(bfloat16 && bf16_product_pays(cout_)),
-      weights_(weights),
-      bias_(padded_bias(bias, cout_)) {
-  CV_Assert(weights.dims == 4 && weights.type() == CV_32F && weights.isContinuous() &&
-            weights.size[2] == 3 && weights.size[3] == 3);
-}
-
-int Convolution3x3::summed() const { return summed_length(cin_, bfloat16_); }
 
 void Convolution3x3::pack(ProductBlock block) {
   block_ = block;

@@ -16,15 +16,12 @@
 
 namespace keyfleet::vision {
 
-class Convolution3x3 {
+class Convolution3x3 : public ProductKernel {
  public:
   // weights: output channels x input channels x 3 x 3, float; bias: empty or one per output;
   // bfloat16 as for SubpixelDeconvolution.
-  Convolution3x3(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16);
-
-  int input_channels() const { return cin_; }
-  int output_channels() const { return cout_; }
-  bool bfloat16() const { return bfloat16_; }
+  Convolution3x3(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16)
+      : ProductKernel(weights, bias, bfloat16, 3, false) {}
 
   // One image: src is input_channels planes of h x w, dst output_channels planes of h x w, each
   // set contiguous; `activation` (may be null) is applied to each output plane once written.
@@ -34,12 +31,7 @@ class Convolution3x3 {
  private:
   void pack(ProductBlock block);  // the weights for blocks of that shape
   void multiply(int block_begin, int block_end);
-  int summed() const;  // the length of the summed dimension: input channels, or their pairs
 
-  int cin_, cout_;
-  bool bfloat16_;
-  cv::Mat weights_;
-  std::vector<float> bias_;  // padded_bias
   ProductBlock block_{0, 0};
   int row_blocks_ = 0;
   PackedWeights packed_;

@@ -5,17 +5,6 @@
 
 namespace keyfleet::vision {
 
-PointwiseConvolution::PointwiseConvolution(const cv::Mat& weights, const cv::Mat& bias,
-                                           bool bfloat16)
-    : cin_(weights.size[1]),
-      cout_(weights.size[0]),
-      bfloat16_(bfloat16 && bf16_product_pays(cout_)),
-      weights_(weights),
-      bias_(padded_bias(bias, cout_)) {
-  CV_Assert(weights.dims == 4 && weights.type() == CV_32F && weights.isContinuous() &&
-            weights.size[2] == 1 && weights.size[3] == 1);
-}
-
 void PointwiseConvolution::pack(ProductBlock block) {
   block_ = block;
   row_blocks_ = (cout_ + block_.rows - 1) / block_.rows;
@@ -23,8 +12,6 @@ void PointwiseConvolution::pack(ProductBlock block) {
   packed_.pack(block, 1, cin_, cout_, bfloat16_,
                [&](int co, int ci, int) { return w[std::size_t(co) * cin_ + ci]; });
 }
-
-int PointwiseConvolution::summed() const { return summed_length(cin_, bfloat16_); }
 
 void PointwiseConvolution::run(const float* src, int pixels, float* dst,
                                const cv::dnn::ActivationLayer* activation) {

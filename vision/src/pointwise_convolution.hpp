@@ -14,15 +14,12 @@
 
 namespace keyfleet::vision {
 
-class PointwiseConvolution {
+class PointwiseConvolution : public ProductKernel {
  public:
   // weights: output channels x input channels x 1 x 1, float; bias: empty or one per output;
   // bfloat16 as for SubpixelDeconvolution.
-  PointwiseConvolution(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16);
-
-  int input_channels() const { return cin_; }
-  int output_channels() const { return cout_; }
-  bool bfloat16() const { return bfloat16_; }
+  PointwiseConvolution(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16)
+      : ProductKernel(weights, bias, bfloat16, 1, false) {}
 
   // One image: src is input_channels planes of `pixels` floats, dst output_channels planes, each
   // set contiguous; `activation` may be null. Runs on cv::parallel_for_'s threads; not reentrant.
@@ -30,12 +27,7 @@ class PointwiseConvolution {
 
  private:
   void pack(ProductBlock block);  // the weights for blocks of that shape
-  int summed() const;             // the length of the summed dimension: input channels, or pairs
 
-  int cin_, cout_;
-  bool bfloat16_;
-  cv::Mat weights_;
-  std::vector<float> bias_;  // padded_bias
   // The block shape the weights are packed for (chosen per input size: the least padding).
   ProductBlock block_{0, 0};
   int row_blocks_ = 0;

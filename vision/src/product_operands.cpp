@@ -13,6 +13,17 @@ std::vector<float> padded_bias(const cv::Mat& bias, int outputs) {
   return padded;
 }
 
+ProductKernel::ProductKernel(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16, int kernel,
+                             bool transposed)
+    : cin_(weights.size[transposed ? 0 : 1]),
+      cout_(weights.size[transposed ? 1 : 0]),
+      bfloat16_(bfloat16 && bf16_product_pays(cout_)),
+      weights_(weights),
+      bias_(padded_bias(bias, cout_)) {
+  CV_Assert(weights.dims == 4 && weights.type() == CV_32F && weights.isContinuous() &&
+            weights.size[2] == kernel && weights.size[3] == kernel);
+}
+
 void PackedWeights::pack(ProductBlock block, int taps, int inputs, int outputs, bool bfloat16,
                          const std::function<float(int, int, int)>& weight) {
   const int row_blocks = (outputs + block.rows - 1) / block.rows;

@@ -33,6 +33,29 @@ struct PackedWeights {
             const std::function<float(int, int, int)>& weight);
 };
 
+// What the product stand-ins hold alike: the weights (4-D float, kernel x kernel taps) and their
+// channel counts, the bias padded (padded_bias), and whether the products run in bfloat16 (asked
+// for, and bf16_product_pays for the outputs: the CPU has AVX512-BF16, 8 or more outputs).
+class ProductKernel {
+ public:
+  int input_channels() const { return cin_; }
+  int output_channels() const { return cout_; }
+  bool bfloat16() const { return bfloat16_; }
+
+ protected:
+  // weights: outputs x inputs x kernel x kernel, or inputs x outputs x kernel x kernel where
+  // `transposed` (ONNX ConvTranspose's layout); bias: empty or one float per output.
+  ProductKernel(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16, int kernel,
+                bool transposed);
+  // The length of the summed dimension: input channels, or their pairs.
+  int summed() const { return summed_length(cin_, bfloat16_); }
+
+  int cin_, cout_;
+  bool bfloat16_;
+  cv::Mat weights_;
+  std::vector<float> bias_;
+};
+
 // The summed dimension's chunk: chunks of it whose columns of a block (all taps) stay within
 // about 16 KB (L1), as even as they come.
 int summed_chunk(int total, int taps, int columns);

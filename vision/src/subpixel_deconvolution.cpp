@@ -19,17 +19,9 @@ constexpr Tap kPhase1[] = {{0, 2}, {1, 0}};
 
 bool SubpixelDeconvolution::supported() { return product_supported(); }
 
-int SubpixelDeconvolution::summed() const { return summed_length(cin_, bfloat16_); }
-
 SubpixelDeconvolution::SubpixelDeconvolution(const cv::Mat& weights, const cv::Mat& bias,
                                              bool bfloat16)
-    : cin_(weights.size[0]),
-      cout_(weights.size[1]),
-      bfloat16_(bfloat16 && bf16_product_pays(cout_)),
-      weights_(weights),
-      bias_(padded_bias(bias, cout_)) {
-  CV_Assert(weights.dims == 4 && weights.type() == CV_32F && weights.isContinuous() &&
-            weights.size[2] == 3 && weights.size[3] == 3);
+    : ProductKernel(weights, bias, bfloat16, 3, true) {
   for (int a = 0; a < 2; ++a)
     for (int b = 0; b < 2; ++b) {
       Phase& phase = phases_[a * 2 + b];

@@ -17,7 +17,7 @@
 
 namespace keyfleet::vision {
 
-class SubpixelDeconvolution {
+class SubpixelDeconvolution : public ProductKernel {
  public:
   // Whether this CPU runs the kernel (x86-64 with AVX2 and FMA); elsewhere OpenCV's layer stays.
   static bool supported();
@@ -26,10 +26,6 @@ class SubpixelDeconvolution {
   // bias: empty or one float per output channel. bfloat16: multiply in bfloat16 pairs (sums in
   // float) where bf16_product_pays (the CPU has AVX512-BF16, 8 or more output channels).
   SubpixelDeconvolution(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16);
-
-  int input_channels() const { return cin_; }
-  int output_channels() const { return cout_; }
-  bool bfloat16() const { return bfloat16_; }
 
   // One image: src is input_channels planes of h x w, dst output_channels planes of 2h x 2w,
   // each set contiguous; `activation` (may be null) is applied to each output plane once written.
@@ -46,12 +42,7 @@ class SubpixelDeconvolution {
 
   void pack(ProductBlock block);  // the weights for blocks of that shape
   void multiply(const Phase& phase, int block_begin, int block_end, float* out) const;
-  int summed() const;  // the length of the summed dimension: input channels, or their pairs
 
-  int cin_, cout_;
-  bool bfloat16_;
-  cv::Mat weights_;
-  std::vector<float> bias_;  // padded_bias
   // The block shape the weights are packed for (chosen per input size: the least padding).
   int rows_per_block_ = 0, row_blocks_ = 0, lanes_per_block_ = 0;
   Phase phases_[4];  // (a, b) = (0, 0), (0, 1), (1, 0), (1, 1)
