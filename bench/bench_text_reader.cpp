@@ -197,7 +197,7 @@ void BM_PpocrDbPostprocess(benchmark::State& state) {
   std::size_t lines = 0;
   for (auto _ : state) {
     lines =
-        keyfleet::station::ppocr::db_postprocess(prob, fitted, scale, c->image.size(), {}).size();
+        keyfleet::vision::db_postprocess(prob, fitted, scale, c->image.size(), {}).size();
     benchmark::DoNotOptimize(lines);
   }
   state.counters["lines"] = double(lines);

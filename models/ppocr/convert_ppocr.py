@@ -10,6 +10,9 @@ Writes  models/ppocr_det_<W>x<H>.onnx   one detector per fixed input size
         models/ppocr_rec_w<W>.onnx      one recogniser per fixed input width
         models/ppocr_keys_v1.txt        the character list (class i+1 = line i)
         models/ppocr_meta.json          sizes, normalisation, thresholds, provenance
+        models/ppocr_det_<W>x<H>.json   for --segmenter-sizes: the detector described as a
+                                        keyfleet text segmenter (the robot agent's semantic
+                                        model; vision/text_segmenter.hpp reads it)
 
 Why fixed shapes: OpenCV 4.6 infers every blob shape once, from the shape of the
 first input; dynamic dims in the file and a later input of another size gave
@@ -196,6 +199,42 @@ def convert_detector(src, dst, width, height):
     # Runtime, run the ORIGINAL model there.
     onnx.save(model, dst)
     return {"clip_nodes_rewritten": n_clip}
+
+
+def conv_flops(model):
+    """Multiply-adds x 2 of the Conv and ConvTranspose nodes at the model's fixed input size."""
+    shapes = static_shapes(model)
+    total = 0
+    for node in model.graph.node:
+        if node.op_type not in ("Conv", "ConvTranspose"):
+            continue
+        weight = shapes[node.input[1]]
+        per_output = int(np.prod(weight[1:]))  # Cin/group x kH x kW
+        if node.op_type == "Conv":
+            total += 2 * per_output * int(np.prod(shapes[node.output[0]][1:]))
+        else:  # each input pixel spreads Cout/group x kH x kW products
+            total += 2 * int(np.prod(shapes[node.input[0]][1:])) * per_output
+    return total
+
+
+def segmenter_description(width, height, gflops_512x256, package):
+    """The detector as keyfleet-segmenter JSON: frames resized (aspect not kept) to WxH, its
+    filled DB boxes as the text mask."""
+    return {
+        "format": "keyfleet-segmenter", "version": 1,
+        "description": "PP-OCRv4 text detector (%s@%s, converted by models/ppocr/convert_ppocr.py): "
+                       "DB boxes filled as the text mask" % (package.get("name"), package.get("version")),
+        "input_width": width, "input_height": height, "size_multiple": 32,
+        "scale": 1.0 / 255.0,
+        # ImageNet's numbers in RGB order applied to OpenCV's BGR channels, as PaddleOCR does.
+        "mean_bgr": [0.485 * 255.0, 0.456 * 255.0, 0.406 * 255.0],
+        "std_bgr": [0.229, 0.224, 0.225],
+        "output": "text_probability",
+        "db": {"binary_threshold": 0.3, "box_threshold": 0.6, "unclip_ratio": 1.5, "min_size": 3},
+        "classes": ["text"], "target_classes": ["text"],
+        "gflops_512x256": round(gflops_512x256 / 1e9, 3),
+        "weights": "float32",
+    }
 
 
 # --------------------------------------------------------------------------
@@ -469,6 +508,9 @@ def main():
     # their small text, at about 3x the detector's cost.
     ap.add_argument("--det-sizes", type=parse_sizes, default=parse_sizes("640x480,1280x736"),
                     help="detector input sizes WxH, comma separated (default %(default)s)")
+    # The robot agent's semantic model: its frame size (640x480) halved, as MiniNet's 320x256.
+    ap.add_argument("--segmenter-sizes", type=parse_sizes, default=parse_sizes("320x256"),
+                    help="detector sizes also written as keyfleet segmenters (default %(default)s)")
     ap.add_argument("--rec-widths", type=parse_widths, default=parse_widths("160,320,640"),
                     help="recogniser input widths (height is 48)")
     args = ap.parse_args()
@@ -483,6 +525,20 @@ def main():
         stats = convert_detector(det_src, os.path.join(args.out, name), w, h)
         outputs[name] = stats
         print("wrote %s  %s" % (name, stats))
+    flops = None
+    for w, h in args.segmenter_sizes:
+        name = "ppocr_det_%dx%d.onnx" % (w, h)
+        if name not in outputs:
+            outputs[name] = convert_detector(det_src, os.path.join(args.out, name), w, h)
+            print("wrote %s  %s" % (name, outputs[name]))
+        if flops is None:
+            probe = os.path.join(args.out, "flops_probe_512x256.onnx")
+            convert_detector(det_src, probe, 512, 256)
+            flops = conv_flops(onnx.load(probe))
+            os.remove(probe)
+        with open(os.path.join(args.out, "ppocr_det_%dx%d.json" % (w, h)), "w", encoding="utf-8") as f:
+            json.dump(segmenter_description(w, h, flops, pkg), f, indent=1)
+        print("wrote ppocr_det_%dx%d.json (%.3f GFLOPs at 512x256)" % (w, h, flops / 1e9))
     for w in args.rec_widths:
         name = "ppocr_rec_w%d.onnx" % w
         stats = convert_recognizer(rec_src, os.path.join(args.out, name), w)
@@ -506,6 +562,7 @@ def main():
             "output": "1x1xHxW text probability",
             "binary_threshold": 0.3, "box_threshold": 0.6, "unclip_ratio": 1.5, "min_size": 3,
         },
+        "segmenters": ["ppocr_det_%dx%d.json" % size for size in args.segmenter_sizes],
         "recognizer": {
             "files": {str(w): "ppocr_rec_w%d.onnx" % w for w in args.rec_widths},
             "height": REC_HEIGHT, "input": "1x3x48xW BGR, x/127.5-1, pad right with 0",

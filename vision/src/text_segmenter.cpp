@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <optional>
@@ -28,6 +29,30 @@ SegmenterInfo read_segmenter_info(const std::string& model_path) {
     info.scale = j.at("scale");
     const auto& mean = j.at("mean_bgr");
     info.mean_bgr = cv::Scalar(mean.at(0), mean.at(1), mean.at(2));
+    if (j.contains("std_bgr")) {
+      const auto& std_bgr = j.at("std_bgr");
+      info.std_bgr = cv::Scalar(std_bgr.at(0), std_bgr.at(1), std_bgr.at(2));
+      for (int c = 0; c < 3; ++c)
+        if (!(info.std_bgr[c] > 0) || !std::isfinite(info.std_bgr[c]))
+          throw std::runtime_error("std_bgr must be positive and finite");
+    }
+    const std::string output = j.value("output", "class_logits");
+    if (output == "text_probability") {
+      info.output = SegmenterInfo::Output::kTextProbability;
+      const auto db = j.value("db", nlohmann::json::object());
+      info.boxes.binary_threshold = db.value("binary_threshold", info.boxes.binary_threshold);
+      info.boxes.box_threshold = db.value("box_threshold", info.boxes.box_threshold);
+      info.boxes.unclip_ratio = db.value("unclip_ratio", info.boxes.unclip_ratio);
+      info.boxes.min_size = db.value("min_size", info.boxes.min_size);
+      for (const float v : {info.boxes.binary_threshold, info.boxes.box_threshold})
+        if (!(v >= 0 && v <= 1)) throw std::runtime_error("db thresholds must lie in [0, 1]");
+      if (!(info.boxes.unclip_ratio >= 0) || !std::isfinite(info.boxes.unclip_ratio) ||
+          !(info.boxes.min_size >= 0) || !std::isfinite(info.boxes.min_size))
+        throw std::runtime_error("db unclip_ratio and min_size must be finite and >= 0");
+    } else if (output != "class_logits") {
+      throw std::runtime_error("output '" + output +
+                               "' is neither class_logits nor text_probability");
+    }
     info.classes = j.at("classes").get<std::vector<std::string>>();
     info.description = j.value("description", "");
     info.gflops_512x256 = j.value("gflops_512x256", 0.0);
@@ -41,6 +66,8 @@ SegmenterInfo read_segmenter_info(const std::string& model_path) {
         info.input_size.width % info.size_multiple || info.input_size.height % info.size_multiple)
       throw std::runtime_error("input size must be positive multiples of size_multiple");
     if (info.target_classes.empty()) throw std::runtime_error("no target classes");
+    if (info.output == SegmenterInfo::Output::kTextProbability && info.classes.size() != 1)
+      throw std::runtime_error("a text_probability output has one class");
     return info;
   } catch (const std::exception& e) {
     throw StartupError("segmenter: " + path + ": " + e.what());
@@ -81,8 +108,14 @@ std::map<std::string, double> DnnTextSegmenter::last_forward_ms_by_type() const 
 
 std::vector<cv::Mat> DnnTextSegmenter::segment(const std::vector<cv::Mat>& frames) {
   if (frames.empty()) return {};
-  const cv::Mat blob = cv::dnn::blobFromImages(frames, info_.scale, info_.input_size,
-                                               info_.mean_bgr, false, false, CV_32F);
+  cv::Mat blob = cv::dnn::blobFromImages(frames, info_.scale, info_.input_size, info_.mean_bgr,
+                                         false, false, CV_32F);
+  if (info_.std_bgr != cv::Scalar(1, 1, 1))
+    for (int i = 0; i < blob.size[0]; ++i)
+      for (int c = 0; c < 3; ++c) {
+        cv::Mat plane(info_.input_size, CV_32F, blob.ptr<float>(i, c));
+        plane *= 1.0 / info_.std_bgr[c];
+      }
   net_.setInput(blob);
   const cv::Mat out = net_.forward();
   const int n = int(frames.size()), classes = int(info_.classes.size());
@@ -93,6 +126,14 @@ std::vector<cv::Mat> DnnTextSegmenter::segment(const std::vector<cv::Mat>& frame
                              std::to_string(info_.input_size.width));
   const int h = out.size[2], w = out.size[3];
   std::vector<cv::Mat> masks;
+  if (info_.output == SegmenterInfo::Output::kTextProbability) {
+    for (int i = 0; i < n; ++i) {
+      const cv::Mat prob(h, w, CV_32F, const_cast<float*>(out.ptr<float>(i, 0)));
+      const cv::Size size(w, h);
+      masks.push_back(fill_boxes(db_postprocess(prob, size, 1.f, size, info_.boxes), size));
+    }
+    return masks;
+  }
   for (int i = 0; i < n; ++i) {
     // A pixel is text where a target class has the largest logit.
     cv::Mat best(h, w, CV_32F, cv::Scalar(-1e30f)), is_target = cv::Mat::zeros(h, w, CV_8U);

@@ -1,10 +1,14 @@
 #pragma once
 // The semantic seam: a network that marks text pixels. The real implementation runs an ONNX
-// model through OpenCV DNN, described by a JSON file beside it (model.onnx -> model.json).
+// model through OpenCV DNN, described by a JSON file beside it (model.onnx -> model.json): a
+// segmenter with class logits (MiniNet: a pixel is text where a text class has the largest
+// logit) or a DB text detector with one probability map (PP-OCR's: the mask is its text boxes,
+// filled).
 #include <opencv2/core.hpp>
 #include <opencv2/dnn.hpp>
 
 #include "keyfleet/common/config.hpp"
+#include "keyfleet/vision/db_boxes.hpp"
 #include "keyfleet/vision/dnn_layers.hpp"
 
 #include <map>
@@ -16,10 +20,17 @@
 namespace keyfleet::vision {
 
 struct SegmenterInfo {
+  enum class Output {
+    kClassLogits,      // N x classes x H x W; "output": "class_logits" (the default)
+    kTextProbability,  // N x 1 x H x W, DB's text probability; "output": "text_probability"
+  };
   cv::Size input_size;       // frames are resized to this
   int size_multiple = 1;     // the network needs H and W multiples of this
-  double scale = 1.0 / 255;  // blob = (pixel - mean) * scale, BGR order
+  double scale = 1.0 / 255;  // blob = (pixel - mean) * scale / std, BGR order
   cv::Scalar mean_bgr{127.5, 127.5, 127.5};
+  cv::Scalar std_bgr{1, 1, 1};
+  Output output = Output::kClassLogits;
+  DbParams boxes;  // kTextProbability: how the map becomes boxes ("db" in the description)
   std::vector<std::string> classes;
   std::vector<int> target_classes;  // indices into classes: what counts as "text"
   std::string description;

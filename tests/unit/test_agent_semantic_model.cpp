@@ -1,0 +1,159 @@
+// The agent's default semantic model, PP-OCRv4's text detector at 320x256 described as a text
+// segmenter (scripts/fetch_ppocr.sh converts it from npm): it loads from the default config,
+// marks a drawn word where it was drawn, finds the text of generated views and of unseen real
+// photos above stated floors. And the segmenter description's probability-output fields: what
+// they accept and what they refuse.
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <string>
+
+#include "keyfleet/common/config.hpp"
+#include "keyfleet/common/error.hpp"
+#include "keyfleet/common/logging.hpp"
+#include "keyfleet/eval/segmenter_eval.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
+#include "keyfleet/scenario/scenario_generator.hpp"
+#include "keyfleet/vision/model_files.hpp"
+#include "keyfleet/vision/text_segmenter.hpp"
+#include "test_support.hpp"
+
+namespace keyfleet::vision {
+namespace {
+
+using namespace ::keyfleet::eval;
+
+namespace fs = std::filesystem;
+
+#define KEYFLEET_REQUIRE_DEFAULT_SEMANTIC_MODEL()                                                \
+  try {                                                                                          \
+    locate_model(SemanticConfig{}.model, "segmenter model");                                     \
+  } catch (const StartupError& e) {                                                              \
+    GTEST_SKIP() << e.what() << " (scripts/fetch_ppocr.sh downloads and converts it; the build " \
+                 << "runs it)";                                                                  \
+  }
+
+TEST(AgentSemanticModel, TheDefaultIsPpocrsDetectorDescribedAsAProbabilitySegmenter) {
+  KEYFLEET_REQUIRE_DEFAULT_SEMANTIC_MODEL();
+  const auto segmenter = make_text_segmenter(SemanticConfig{});
+  const SegmenterInfo& info = segmenter->info();
+  EXPECT_EQ(info.input_size, cv::Size(320, 256));
+  EXPECT_EQ(info.output, SegmenterInfo::Output::kTextProbability);
+  EXPECT_NEAR(info.std_bgr[0], 0.229, 1e-6);
+  EXPECT_NEAR(info.boxes.unclip_ratio, 1.5f, 1e-6);
+  EXPECT_GT(info.gflops_512x256, 1.0);
+  // A blank frame holds no text.
+  const auto blank = segmenter->segment({cv::Mat(480, 640, CV_8UC3, cv::Scalar::all(90))});
+  ASSERT_EQ(blank.size(), 1u);
+  EXPECT_EQ(cv::countNonZero(blank[0]), 0);
+}
+
+TEST(AgentSemanticModel, MarksADrawnWordWhereItWasDrawn) {
+  KEYFLEET_REQUIRE_DEFAULT_SEMANTIC_MODEL();
+  const auto segmenter = make_text_segmenter(SemanticConfig{});
+  cv::Mat frame(480, 640, CV_8UC3, cv::Scalar(200, 205, 210));
+  const cv::Rect word(160, 300, 320, 70);  // where "HOTEL" goes, in frame pixels
+  cv::putText(frame, "HOTEL", {word.x + 10, word.y + 60}, cv::FONT_HERSHEY_DUPLEX, 2.6,
+              cv::Scalar(20, 20, 20), 6);
+  const cv::Mat mask = segmenter->segment({frame}).at(0);
+  ASSERT_EQ(mask.size(), cv::Size(320, 256));
+  const cv::Rect in_mask(word.x / 2, word.y * 256 / 480, word.width / 2, word.height * 256 / 480);
+  const int inside = cv::countNonZero(mask(in_mask));
+  const int all = cv::countNonZero(mask);
+  EXPECT_GT(inside, in_mask.area() / 2) << "the word's box is not marked";
+  EXPECT_GT(inside, all * 8 / 10) << "text marked away from the word";
+}
+
+// Floors about 0.1 below the model's own figures on these views at 320x256 (recall 0.674,
+// precision 0.636, IoU 0.486, rank 0.75 when recorded): a regression below them fails. MiniNet
+// there: 0.63 / 0.32 / 0.27, rank 0.68.
+TEST(AgentSemanticModel, FindsTextPixelsOfGeneratedViewsAboveStatedFloors) {
+  KEYFLEET_REQUIRE_DEFAULT_SEMANTIC_MODEL();
+  test::TempDir dir;
+  ScenarioConfig config;
+  config.seed = 4242;
+  config.street.sign_probability = 1.0;
+  scenario::generate_training_set(config, dir.path().string(), 12, null_logger());
+  auto segmenter = make_text_segmenter(SemanticConfig{});
+  const SegmentationScores s = evaluate_on_pairs(*segmenter, dir.path().string(), 0);
+  EXPECT_EQ(s.images, 12u);
+  EXPECT_GT(s.recall, 0.57) << "precision " << s.precision << ", IoU " << s.iou;
+  EXPECT_GT(s.precision, 0.53) << "recall " << s.recall << ", IoU " << s.iou;
+  EXPECT_GT(s.iou, 0.38) << "recall " << s.recall << ", precision " << s.precision;
+  EXPECT_GT(s.frame_rank_correlation, 0.5);
+}
+
+// Real photos no model here was trained or tuned on (ICDAR 2015 test_clean, the first 20), as
+// Table III scores them, at the agent's 320x256. Floors about 0.05 below its figures when
+// recorded (recall 0.276, precision 0.697, IoU 0.246, rank 0.49); the shipped MiniNet there:
+// 0.084 / 0.102 / 0.048.
+TEST(AgentSemanticModel, FindsTextPixelsOfUnseenRealPhotosAboveStatedFloors) {
+  KEYFLEET_REQUIRE_DEFAULT_SEMANTIC_MODEL();
+  KEYFLEET_REQUIRE_DATA("icdar2015/test_clean");
+  auto segmenter = make_text_segmenter(SemanticConfig{});
+  const SegmentationScores s = evaluate_on_icdar(*segmenter, (data_path / "images").string(),
+                                                 (data_path / "gt").string(), 20);
+  EXPECT_EQ(s.images, 20u);
+  EXPECT_GT(s.recall, 0.22) << "precision " << s.precision << ", IoU " << s.iou;
+  EXPECT_GT(s.precision, 0.60) << "recall " << s.recall << ", IoU " << s.iou;
+  EXPECT_GT(s.iou, 0.19) << "recall " << s.recall << ", precision " << s.precision;
+  // Frames rank as their text does (20 photos: a wide interval, so a low floor).
+  EXPECT_GT(s.frame_rank_correlation, 0.2);
+}
+
+// ------------------------------------------------------------ the description's fields
+
+class SegmenterDescription : public ::testing::Test {
+ protected:
+  std::string write(const std::string& extra) {
+    std::ofstream(dir_.path() / "net.json")
+        << R"({"format": "keyfleet-segmenter", "version": 1, "input_width": 320,
+               "input_height": 256, "size_multiple": 32, "scale": 0.00392156862745098,
+               "mean_bgr": [123.675, 116.28, 103.53], "classes": ["text"],
+               "target_classes": ["text"])"
+        << extra << "}";
+    return (dir_.path() / "net.onnx").string();
+  }
+  test::TempDir dir_;
+};
+
+TEST_F(SegmenterDescription, ReadsStdAndTheDbSettingsOfAProbabilityOutput) {
+  const SegmenterInfo info =
+      read_segmenter_info(write(R"(, "std_bgr": [0.229, 0.224, 0.225], "output": "text_probability",
+               "db": {"binary_threshold": 0.2, "box_threshold": 0.5, "unclip_ratio": 2.0})"));
+  EXPECT_EQ(info.output, SegmenterInfo::Output::kTextProbability);
+  EXPECT_NEAR(info.std_bgr[2], 0.225, 1e-9);
+  EXPECT_FLOAT_EQ(info.boxes.binary_threshold, 0.2f);
+  EXPECT_FLOAT_EQ(info.boxes.box_threshold, 0.5f);
+  EXPECT_FLOAT_EQ(info.boxes.unclip_ratio, 2.0f);
+  EXPECT_FLOAT_EQ(info.boxes.min_size, DbParams{}.min_size);  // not given: DB's default
+  // Without the new fields: class logits and no division.
+  const SegmenterInfo plain = read_segmenter_info(write(""));
+  EXPECT_EQ(plain.output, SegmenterInfo::Output::kClassLogits);
+  EXPECT_EQ(plain.std_bgr, cv::Scalar(1, 1, 1));
+}
+
+TEST_F(SegmenterDescription, RefusesBadValuesNamingTheFile) {
+  for (const std::string extra :
+       {R"(, "std_bgr": [0.229, 0, 0.225])", R"(, "std_bgr": [0.229, -1, 0.225])",
+        R"(, "std_bgr": [0.229, 1e999, 0.225])", R"(, "output": "boxes")",
+        R"(, "output": "text_probability", "db": {"binary_threshold": 1.5})",
+        R"(, "output": "text_probability", "db": {"box_threshold": -0.1})",
+        R"(, "output": "text_probability", "db": {"unclip_ratio": -1})",
+        R"(, "output": "text_probability", "classes": ["background", "text"])"}) {
+    try {
+      read_segmenter_info(write(extra));
+      ADD_FAILURE() << "accepted " << extra;
+    } catch (const StartupError& e) {
+      EXPECT_NE(std::string(e.what()).find("net.json"), std::string::npos) << e.what();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace keyfleet::vision
