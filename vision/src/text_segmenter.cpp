@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -26,6 +27,8 @@ SegmenterInfo read_segmenter_info(const std::string& model_path) {
     SegmenterInfo info;
     info.input_size = {j.at("input_width").get<int>(), j.at("input_height").get<int>()};
     info.size_multiple = j.value("size_multiple", 1);
+    info.max_batch = j.value("max_batch", 0);
+    if (info.max_batch < 0) throw std::runtime_error("max_batch must be >= 0");
     info.scale = j.at("scale");
     const auto& mean = j.at("mean_bgr");
     info.mean_bgr = cv::Scalar(mean.at(0), mean.at(1), mean.at(2));
@@ -108,6 +111,16 @@ std::map<std::string, double> DnnTextSegmenter::last_forward_ms_by_type() const 
 
 std::vector<cv::Mat> DnnTextSegmenter::segment(const std::vector<cv::Mat>& frames) {
   if (frames.empty()) return {};
+  if (info_.max_batch > 0 && int(frames.size()) > info_.max_batch) {
+    std::vector<cv::Mat> masks;
+    for (std::size_t first = 0; first < frames.size(); first += std::size_t(info_.max_batch)) {
+      const auto end = frames.begin() + std::ptrdiff_t(std::min(
+                                            frames.size(), first + std::size_t(info_.max_batch)));
+      for (auto& mask : segment(std::vector<cv::Mat>(frames.begin() + std::ptrdiff_t(first), end)))
+        masks.push_back(std::move(mask));
+    }
+    return masks;
+  }
   cv::Mat blob = cv::dnn::blobFromImages(frames, info_.scale, info_.input_size, info_.mean_bgr,
                                          false, false, CV_32F);
   if (info_.std_bgr != cv::Scalar(1, 1, 1))

@@ -26,6 +26,7 @@ struct SegmenterInfo {
   };
   cv::Size input_size;       // frames are resized to this
   int size_multiple = 1;     // the network needs H and W multiples of this
+  int max_batch = 0;         // frames a forward pass takes at most (0: any number)
   double scale = 1.0 / 255;  // blob = (pixel - mean) * scale / std, BGR order
   cv::Scalar mean_bgr{127.5, 127.5, 127.5};
   cv::Scalar std_bgr{1, 1, 1};
