@@ -13,6 +13,24 @@
 #include "keyfleet/vision/model_files.hpp"
 
 namespace keyfleet::vision {
+namespace {
+
+// The "db" object of a text_probability description; DB's defaults where a field is absent.
+DbParams read_db_params(const nlohmann::json& db) {
+  DbParams params;
+  params.binary_threshold = db.value("binary_threshold", params.binary_threshold);
+  params.box_threshold = db.value("box_threshold", params.box_threshold);
+  params.unclip_ratio = db.value("unclip_ratio", params.unclip_ratio);
+  params.min_size = db.value("min_size", params.min_size);
+  for (const float v : {params.binary_threshold, params.box_threshold})
+    if (!(v >= 0 && v <= 1)) throw std::runtime_error("db thresholds must lie in [0, 1]");
+  if (!(params.unclip_ratio >= 0) || !std::isfinite(params.unclip_ratio) ||
+      !(params.min_size >= 0) || !std::isfinite(params.min_size))
+    throw std::runtime_error("db unclip_ratio and min_size must be finite and >= 0");
+  return params;
+}
+
+}  // namespace
 
 SegmenterInfo read_segmenter_info(const std::string& model_path) {
   const std::string path = std::filesystem::path(model_path).replace_extension(".json").string();
@@ -42,16 +60,7 @@ SegmenterInfo read_segmenter_info(const std::string& model_path) {
     const std::string output = j.value("output", "class_logits");
     if (output == "text_probability") {
       info.output = SegmenterInfo::Output::kTextProbability;
-      const auto db = j.value("db", nlohmann::json::object());
-      info.boxes.binary_threshold = db.value("binary_threshold", info.boxes.binary_threshold);
-      info.boxes.box_threshold = db.value("box_threshold", info.boxes.box_threshold);
-      info.boxes.unclip_ratio = db.value("unclip_ratio", info.boxes.unclip_ratio);
-      info.boxes.min_size = db.value("min_size", info.boxes.min_size);
-      for (const float v : {info.boxes.binary_threshold, info.boxes.box_threshold})
-        if (!(v >= 0 && v <= 1)) throw std::runtime_error("db thresholds must lie in [0, 1]");
-      if (!(info.boxes.unclip_ratio >= 0) || !std::isfinite(info.boxes.unclip_ratio) ||
-          !(info.boxes.min_size >= 0) || !std::isfinite(info.boxes.min_size))
-        throw std::runtime_error("db unclip_ratio and min_size must be finite and >= 0");
+      info.boxes = read_db_params(j.value("db", nlohmann::json::object()));
     } else if (output != "class_logits") {
       throw std::runtime_error("output '" + output +
                                "' is neither class_logits nor text_probability");
