@@ -8,6 +8,8 @@
 
 #include <opencv2/dnn/shape_utils.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <optional>
@@ -301,6 +303,22 @@ TEST(SubpixelDeconvolution, ShippedMiniNetMasksOfABatchAreThoseOfEachFrame) {
   ASSERT_EQ(both.size(), 2u);
   EXPECT_EQ(cv::countNonZero(both[0] != net.segment({a}).at(0)), 0);
   EXPECT_EQ(cv::countNonZero(both[1] != net.segment({b}).at(0)), 0);
+}
+
+// The hard swish stand-in on both sides of its kinks (-3 and 3) and beyond, over a length that
+// is no multiple of the SIMD width: the definition to float rounding, in place as well.
+TEST(HardSwishStandIn, ComputesTheDefinition) {
+  std::vector<float> x;
+  for (float v = -9.f; v <= 9.f; v += 0.0137f) x.push_back(v);
+  x.insert(x.end(), {-3.f, 3.f, 0.f, -1e30f, 1e30f});
+  std::vector<float> y(x.size());
+  hard_swish_vectorised(x.data(), y.data(), int(x.size()));
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const float expected = x[i] * std::min(std::max(x[i] + 3.f, 0.f), 6.f) / 6.f;
+    EXPECT_NEAR(y[i], expected, 1e-6f * std::max(1.f, std::abs(expected))) << "x = " << x[i];
+  }
+  hard_swish_vectorised(x.data(), x.data(), int(x.size()));
+  EXPECT_EQ(x, y);
 }
 
 }  // namespace

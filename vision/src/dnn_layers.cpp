@@ -54,7 +54,57 @@ void selu_vectorised(const float* src, float* dst, int n, float alpha, float gam
   }
 }
 
+void hard_swish_vectorised(const float* src, float* dst, int n) {
+  const cv::v_float32 zero = cv::vx_setzero_f32(), three = cv::vx_setall_f32(3.f),
+                      six = cv::vx_setall_f32(6.f), sixth = cv::vx_setall_f32(1.f / 6.f);
+  constexpr int kLanes = cv::v_float32::nlanes;
+  int i = 0;
+  for (; i + kLanes <= n; i += kLanes) {
+    const cv::v_float32 x = cv::vx_load(src + i);
+    cv::v_store(dst + i, x * cv::v_min(cv::v_max(x + three, zero), six) * sixth);
+  }
+  for (; i < n; ++i) dst[i] = src[i] * std::min(std::max(src[i] + 3.f, 0.f), 6.f) * (1.f / 6.f);
+}
+
 namespace {
+
+// An activation computed by `function(src, dst, n)` over whole planes; OpenCV fuses it into the
+// convolution or sum before it where that layer takes an activation.
+template <void (*function)(const float*, float*, int)>
+class PlaneActivationLayer final : public cv::dnn::ActivationLayer {
+ public:
+  explicit PlaneActivationLayer(const cv::dnn::LayerParams& params) { setParamsFrom(params); }
+
+  static cv::Ptr<cv::dnn::Layer> create(cv::dnn::LayerParams& params) {
+    return cv::makePtr<PlaneActivationLayer>(params);
+  }
+
+  bool getMemoryShapes(const std::vector<cv::dnn::MatShape>& inputs, int required_outputs,
+                       std::vector<cv::dnn::MatShape>& outputs,
+                       std::vector<cv::dnn::MatShape>& internals) const override {
+    cv::dnn::Layer::getMemoryShapes(inputs, required_outputs, outputs, internals);
+    return true;  // may run in place
+  }
+
+  void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
+               cv::OutputArrayOfArrays) override {
+    std::vector<cv::Mat> inputs, outputs;
+    inputs_arr.getMatVector(inputs);
+    outputs_arr.getMatVector(outputs);
+    for (std::size_t i = 0; i < inputs.size(); ++i) {
+      CV_Assert(inputs[i].type() == CV_32F && inputs[i].isContinuous() &&
+                outputs[i].isContinuous() && inputs[i].total() == outputs[i].total());
+      function(inputs[i].ptr<float>(), outputs[i].ptr<float>(), int(inputs[i].total()));
+    }
+  }
+
+  void forwardSlice(const float* src, float* dst, int len, size_t plane_size, int cn0,
+                    int cn1) const override {
+    for (int c = cn0; c < cn1; ++c, src += plane_size, dst += plane_size) function(src, dst, len);
+  }
+};
+
+using HardSwishLayer = PlaneActivationLayer<hard_swish_vectorised>;
 
 class VectorisedSeluLayer final : public cv::dnn::ActivationLayer {
  public:
@@ -365,6 +415,7 @@ DnnLayersScope::DnnLayersScope(DnnLayers layers) : lock_(scope_mutex()) {
   scope_layers() = layers;
   const std::pair<bool, std::pair<const char*, cv::dnn::LayerFactory::Constructor>> chosen[] = {
       {layers.vectorised_selu, {"Selu", VectorisedSeluLayer::create}},
+      {layers.vectorised_hard_swish, {"HardSwish", HardSwishLayer::create}},
       {layers.depthwise || layers.pointwise || layers.dense_3x3,
        {"Convolution", create_convolution}},
       {layers.subpixel_deconvolution, {"Deconvolution", create_deconvolution}}};

@@ -15,9 +15,12 @@
 //   while the columns are in cache.
 // - dense 3x3 convolution (stride 1, padding 1, one group): the same matrix product with nine
 //   taps over a bordered copy of the input.
-// The last three need x86-64 with AVX2 and FMA (elsewhere OpenCV's layers stay); any other
-// convolution or transposed convolution stays OpenCV's. With `bfloat16_products`, where the CPU
-// also has AVX512-BF16, they multiply in bfloat16 with float sums (twice the multiply-adds per
+// - hard swish, x * min(max(x + 3, 0), 6) / 6 (PP-OCR's activation, one ONNX HardSwish node
+//   after models/ppocr/convert_ppocr.py): OpenCV 4.6's HardSwish layer is slower than the five
+//   nodes it replaces; this one is SIMD and, as an ActivationLayer, fused into the layer before.
+// The three product stand-ins need x86-64 with AVX2 and FMA (elsewhere OpenCV's layers stay); any
+// other convolution or transposed convolution stays OpenCV's. With `bfloat16_products`, where the
+// CPU also has AVX512-BF16, they multiply in bfloat16 with float sums (twice the multiply-adds per
 // cycle; inputs and weights rounded to 8 bits of mantissa, so outputs move by about 1 % of their
 // spread, not by float rounding); layers with fewer than 8 outputs stay in float.
 #include <opencv2/dnn.hpp>
@@ -36,11 +39,13 @@ struct DnnLayers {
   bool pointwise = true;
   bool bfloat16_products = true;  // the product stand-ins in bfloat16 where the CPU has it
   bool dense_3x3 = true;
-  static DnnLayers opencv() { return {false, false, false, false, false, false}; }
+  bool vectorised_hard_swish = true;
+  static DnnLayers opencv() { return {false, false, false, false, false, false, false}; }
   // All stand-ins in float: OpenCV's outputs to float rounding, on any CPU.
-  static DnnLayers in_float() { return {true, true, true, true, false, true}; }
+  static DnnLayers in_float() { return {true, true, true, true, false, true, true}; }
   bool any() const {
-    return vectorised_selu || depthwise || subpixel_deconvolution || pointwise || dense_3x3;
+    return vectorised_selu || depthwise || subpixel_deconvolution || pointwise || dense_3x3 ||
+           vectorised_hard_swish;
   }
 };
 
@@ -52,9 +57,12 @@ bool bfloat16_products_supported();
 // selu(x) = gamma * (max(x, 0) + alpha * (exp(min(x, 0)) - 1)), for n floats (in place allowed).
 void selu_vectorised(const float* src, float* dst, int n, float alpha, float gamma);
 
+// hard_swish(x) = x * min(max(x + 3, 0), 6) / 6, for n floats (in place allowed).
+void hard_swish_vectorised(const float* src, float* dst, int n);
+
 // While alive, networks whose layers are created (on import and on their first forward pass)
-// get the chosen stand-ins for ONNX "Selu", "Conv" and "ConvTranspose" nodes. OpenCV's layer
-// registry is process-wide: keep the scope to the construction of one network (layers already
+// get the chosen stand-ins for ONNX "Selu", "HardSwish", "Conv" and "ConvTranspose" nodes. OpenCV's
+// layer registry is process-wide: keep the scope to the construction of one network (layers already
 // created keep their class). One scope at a time in a process: a second one waits for the first to
 // end.
 class DnnLayersScope {
