@@ -68,17 +68,10 @@ void hard_swish_vectorised(const float* src, float* dst, int n) {
 
 namespace {
 
-// An activation computed by `function(src, dst, n)` over whole planes; OpenCV fuses it into the
-// convolution or sum before it where that layer takes an activation.
-template <void (*function)(const float*, float*, int)>
-class PlaneActivationLayer final : public cv::dnn::ActivationLayer {
+// An element-wise activation computed by apply(src, dst, n) over whole planes; OpenCV fuses it
+// into the convolution or sum before it where that layer takes an activation.
+class PlaneActivationLayer : public cv::dnn::ActivationLayer {
  public:
-  explicit PlaneActivationLayer(const cv::dnn::LayerParams& params) { setParamsFrom(params); }
-
-  static cv::Ptr<cv::dnn::Layer> create(cv::dnn::LayerParams& params) {
-    return cv::makePtr<PlaneActivationLayer>(params);
-  }
-
   bool getMemoryShapes(const std::vector<cv::dnn::MatShape>& inputs, int required_outputs,
                        std::vector<cv::dnn::MatShape>& outputs,
                        std::vector<cv::dnn::MatShape>& internals) const override {
@@ -94,19 +87,34 @@ class PlaneActivationLayer final : public cv::dnn::ActivationLayer {
     for (std::size_t i = 0; i < inputs.size(); ++i) {
       CV_Assert(inputs[i].type() == CV_32F && inputs[i].isContinuous() &&
                 outputs[i].isContinuous() && inputs[i].total() == outputs[i].total());
-      function(inputs[i].ptr<float>(), outputs[i].ptr<float>(), int(inputs[i].total()));
+      apply(inputs[i].ptr<float>(), outputs[i].ptr<float>(), int(inputs[i].total()));
     }
   }
 
+  // What a convolution or sum calls after computing output channels [cn0, cn1) of a slice.
   void forwardSlice(const float* src, float* dst, int len, size_t plane_size, int cn0,
                     int cn1) const override {
-    for (int c = cn0; c < cn1; ++c, src += plane_size, dst += plane_size) function(src, dst, len);
+    for (int c = cn0; c < cn1; ++c, src += plane_size, dst += plane_size) apply(src, dst, len);
+  }
+
+ protected:
+  virtual void apply(const float* src, float* dst, int n) const = 0;
+};
+
+class HardSwishLayer final : public PlaneActivationLayer {
+ public:
+  explicit HardSwishLayer(const cv::dnn::LayerParams& params) { setParamsFrom(params); }
+  static cv::Ptr<cv::dnn::Layer> create(cv::dnn::LayerParams& params) {
+    return cv::makePtr<HardSwishLayer>(params);
+  }
+
+ private:
+  void apply(const float* src, float* dst, int n) const override {
+    hard_swish_vectorised(src, dst, n);
   }
 };
 
-using HardSwishLayer = PlaneActivationLayer<hard_swish_vectorised>;
-
-class VectorisedSeluLayer final : public cv::dnn::ActivationLayer {
+class VectorisedSeluLayer final : public PlaneActivationLayer {
  public:
   explicit VectorisedSeluLayer(const cv::dnn::LayerParams& params)
       // ONNX's defaults (those of the SELU paper), as OpenCV's importer passes them through.
@@ -114,39 +122,14 @@ class VectorisedSeluLayer final : public cv::dnn::ActivationLayer {
         gamma_(params.get<float>("gamma", 1.05070102214813232421875f)) {
     setParamsFrom(params);
   }
-
   static cv::Ptr<cv::dnn::Layer> create(cv::dnn::LayerParams& params) {
     return cv::makePtr<VectorisedSeluLayer>(params);
   }
 
-  bool getMemoryShapes(const std::vector<cv::dnn::MatShape>& inputs, int required_outputs,
-                       std::vector<cv::dnn::MatShape>& outputs,
-                       std::vector<cv::dnn::MatShape>& internals) const override {
-    cv::dnn::Layer::getMemoryShapes(inputs, required_outputs, outputs, internals);
-    return true;  // may run in place
-  }
-
-  void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
-               cv::OutputArrayOfArrays) override {
-    std::vector<cv::Mat> inputs, outputs;
-    inputs_arr.getMatVector(inputs);
-    outputs_arr.getMatVector(outputs);
-    for (std::size_t i = 0; i < inputs.size(); ++i) {
-      CV_Assert(inputs[i].type() == CV_32F && inputs[i].isContinuous() &&
-                outputs[i].isContinuous() && inputs[i].total() == outputs[i].total());
-      selu_vectorised(inputs[i].ptr<float>(), outputs[i].ptr<float>(), int(inputs[i].total()),
-                      alpha_, gamma_);
-    }
-  }
-
-  // What a convolution or sum calls after computing output channels [cn0, cn1) of a slice.
-  void forwardSlice(const float* src, float* dst, int len, size_t plane_size, int cn0,
-                    int cn1) const override {
-    for (int c = cn0; c < cn1; ++c, src += plane_size, dst += plane_size)
-      selu_vectorised(src, dst, len, alpha_, gamma_);
-  }
-
  private:
+  void apply(const float* src, float* dst, int n) const override {
+    selu_vectorised(src, dst, n, alpha_, gamma_);
+  }
   float alpha_, gamma_;
 };
 
