@@ -45,6 +45,8 @@ DET_FILE = "ch_PP-OCRv4_det_infer.onnx"
 REC_FILE = "ch_PP-OCRv4_rec_infer.onnx"
 KEYS_FILE = "ppocr_keys_v1.txt"
 REC_HEIGHT = 48
+# PaddleOCR's DB post-processing defaults (the station's reader and the segmenter description).
+DB_SETTINGS = {"binary_threshold": 0.3, "box_threshold": 0.6, "unclip_ratio": 1.5, "min_size": 3}
 
 
 # --------------------------------------------------------------------------
@@ -324,7 +326,7 @@ def segmenter_description(width, height, gflops_512x256, package):
         "mean_bgr": [0.485 * 255.0, 0.456 * 255.0, 0.406 * 255.0],
         "std_bgr": [0.229, 0.224, 0.225],
         "output": "text_probability",
-        "db": {"binary_threshold": 0.3, "box_threshold": 0.6, "unclip_ratio": 1.5, "min_size": 3},
+        "db": dict(DB_SETTINGS),
         "classes": ["text"], "target_classes": ["text"],
         "gflops_512x256": round(gflops_512x256 / 1e9, 3),
         "weights": "float32",
@@ -654,7 +656,7 @@ def main():
             # the order cv2 decoded them, i.e. mean[0] is subtracted from B.
             "mean": [0.485, 0.456, 0.406], "std": [0.229, 0.224, 0.225],
             "output": "1x1xHxW text probability",
-            "binary_threshold": 0.3, "box_threshold": 0.6, "unclip_ratio": 1.5, "min_size": 3,
+            **DB_SETTINGS,
         },
         "segmenters": ["ppocr_det_%dx%d.json" % size for size in args.segmenter_sizes],
         "recognizer": {

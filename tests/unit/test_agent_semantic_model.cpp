@@ -13,12 +13,10 @@
 #include <limits>
 #include <string>
 
+#include "generated_views.hpp"
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/error.hpp"
-#include "keyfleet/common/logging.hpp"
 #include "keyfleet/eval/segmenter_eval.hpp"
-#include "keyfleet/scenario/scenario_config.hpp"
-#include "keyfleet/scenario/scenario_generator.hpp"
 #include "keyfleet/vision/model_files.hpp"
 #include "keyfleet/vision/text_segmenter.hpp"
 #include "test_support.hpp"
@@ -76,14 +74,9 @@ TEST(AgentSemanticModel, MarksADrawnWordWhereItWasDrawn) {
 // there: 0.63 / 0.32 / 0.27, rank 0.68.
 TEST(AgentSemanticModel, FindsTextPixelsOfGeneratedViewsAboveStatedFloors) {
   KEYFLEET_REQUIRE_DEFAULT_SEMANTIC_MODEL();
-  test::TempDir dir;
-  ScenarioConfig config;
-  config.seed = 4242;
-  config.street.sign_probability = 1.0;
-  scenario::generate_training_set(config, dir.path().string(), 12, null_logger());
   auto segmenter = make_text_segmenter(SemanticConfig{});
-  const SegmentationScores s = evaluate_on_pairs(*segmenter, dir.path().string(), 0);
-  EXPECT_EQ(s.images, 12u);
+  const SegmentationScores s = test::score_on_generated_views(*segmenter);
+  EXPECT_EQ(s.images, test::kGeneratedViews);
   EXPECT_GT(s.recall, 0.57) << "precision " << s.precision << ", IoU " << s.iou;
   EXPECT_GT(s.precision, 0.53) << "recall " << s.recall << ", IoU " << s.iou;
   EXPECT_GT(s.iou, 0.38) << "recall " << s.recall << ", precision " << s.precision;

