@@ -180,6 +180,15 @@ void visit(V& v, DdsSecurity& c) {
 }
 
 template <class V>
+void visit(V& v, DdsLinkProfile& c) {
+  v.field("rate_kbit_s", c.rate_kbit_s, between(0.0, 10000000.0));
+  v.field("mtu_bytes", c.mtu_bytes, between(576, 65535));
+  v.field("pacing", c.pacing, between(0.1, 1.0));
+  v.field("announcement_period_s", c.announcement_period_s, positive());
+  v.field("lease_duration_s", c.lease_duration_s, positive());
+}
+
+template <class V>
 void visit(V& v, DdsSettings& c) {
   v.field("domain_id", c.domain_id, between(0, 232));
   v.field("partition", c.partition, Check<std::string>([](const std::string& s) {
@@ -193,6 +202,7 @@ void visit(V& v, DdsSettings& c) {
   v.field("keyframe_history_depth", c.keyframe_history_depth, between(1, 1000));
   v.field("heartbeat_period_s", c.heartbeat_period_s, positive());
   v.field("max_bytes_per_s", c.max_bytes_per_s, between<std::uint64_t>(0, 100000000000ULL));
+  v.section("link", c.link);
   v.section("security", c.security);
 }
 
@@ -306,6 +316,7 @@ void visit(V& v, AgentConfig& c) {
   v.field("stats_period_s", c.stats_period_s, positive());
   v.field("wait_for_station_s", c.wait_for_station_s, at_least(0.0));
   v.field("drain_timeout_s", c.drain_timeout_s, at_least(0.0));
+  v.field("linger_s", c.linger_s, between(0.0, 3600.0));
   v.field("log_level", c.log_level, one_of(kLogLevels));
 }
 

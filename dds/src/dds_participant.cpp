@@ -14,10 +14,12 @@
 #include <algorithm>
 #include <filesystem>
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/security_files.hpp"
+#include "keyfleet/dds/link_tuning.hpp"
 
 namespace keyfleet::dds {
 namespace {
@@ -76,17 +78,36 @@ std::vector<std::string> non_loopback_ipv4_addresses() {
   return addresses;
 }
 
+std::optional<LinkTuning> link_tuning(const DdsSettings& s) {
+  if (s.link.rate_kbit_s > 0)
+    return derive_link_tuning(s.link, s.security.enabled ? &kFleetGovernance : nullptr);
+  return std::nullopt;
+}
+
+std::shared_ptr<eprosima::fastdds::rtps::FlowControllerDescriptor> link_cap(
+    std::uint64_t period_ms, std::uint64_t bytes_per_period) {
+  auto cap = std::make_shared<eprosima::fastdds::rtps::FlowControllerDescriptor>();
+  cap->name = kLinkCapName;
+  cap->scheduler = eprosima::fastdds::rtps::FlowControllerSchedulerPolicy::FIFO;
+  cap->period_ms = period_ms;
+  cap->max_bytes_per_period = static_cast<std::int32_t>(
+      std::clamp<std::uint64_t>(bytes_per_period, 1, std::numeric_limits<std::int32_t>::max()));
+  return cap;
+}
+
 fdds::DomainParticipantQos participant_qos(const DdsSettings& s, const std::string& name,
-                                           const std::string& identity) {
+                                           const std::string& identity,
+                                           const std::optional<LinkTuning>& tuning) {
   fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
   qos.name(name);
   if (s.security.enabled)
     for (auto& [key, value] : security_properties(s, identity))
       qos.properties().properties().emplace_back(key, value);
   auto& discovery = qos.wire_protocol().builtin.discovery_config;
-  discovery.leaseDuration = Duration_t(static_cast<long double>(s.lease_duration_s));
-  discovery.leaseDuration_announcementperiod =
-      Duration_t(static_cast<long double>(s.announcement_period_s));
+  discovery.leaseDuration =
+      Duration_t(static_cast<long double>(tuning ? tuning->lease_duration_s : s.lease_duration_s));
+  discovery.leaseDuration_announcementperiod = Duration_t(
+      static_cast<long double>(tuning ? tuning->announcement_period_s : s.announcement_period_s));
 
   if (s.transport == DdsSettings::Transport::kLocalhost) {
     // No built-in transports: the defaults announce on every interface by multicast.
@@ -109,26 +130,30 @@ fdds::DomainParticipantQos participant_qos(const DdsSettings& s, const std::stri
       auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
       udp->sendBufferSize = kUdpBufferBytes;
       udp->receiveBufferSize = kUdpBufferBytes;
-      udp->maxInitialPeersRange = kMaxInitialPeersRange;
+      // An initial peer without a port stands for this many participants on its host, each
+      // announced to: over a radio, only the first (one keyfleet process per host).
+      udp->maxInitialPeersRange = tuning ? 1 : kMaxInitialPeersRange;
       // Loopback carries nothing between namespaces, but announcing it makes a peer in another
       // namespace (with the same ports) talk to itself: only the real interfaces.
-      for (const auto& address : non_loopback_ipv4_addresses())
-        udp->interfaceWhiteList.push_back(address);
+      const auto addresses = non_loopback_ipv4_addresses();
+      for (const auto& address : addresses) udp->interfaceWhiteList.push_back(address);
       qos.transport().user_transports.push_back(udp);
+      // On a radio link discovery goes to the configured peers only: with a unicast
+      // metatraffic locator of its own, Fast DDS neither joins nor announces to its multicast
+      // group, whose announcements would cross the link a second time.
+      if (tuning && !s.initial_peers.empty())
+        for (const auto& address : addresses)
+          qos.wire_protocol().builtin.metatrafficUnicastLocatorList.push_back(udp_locator(address));
     }
     for (const auto& peer : s.initial_peers)
       qos.wire_protocol().builtin.initialPeersList.push_back(udp_locator(peer));
   }
-  if (s.max_bytes_per_s > 0) {
-    auto cap = std::make_shared<eprosima::fastdds::rtps::FlowControllerDescriptor>();
-    cap->name = kLinkCapName;
-    cap->scheduler = eprosima::fastdds::rtps::FlowControllerSchedulerPolicy::FIFO;
-    cap->period_ms = kLinkCapPeriodMs;
-    const std::uint64_t per_period = s.max_bytes_per_s * kLinkCapPeriodMs / 1000;
-    cap->max_bytes_per_period = static_cast<std::int32_t>(
-        std::clamp<std::uint64_t>(per_period, 1, std::numeric_limits<std::int32_t>::max()));
-    qos.flow_controllers().push_back(cap);
-  }
+  if (tuning)
+    qos.flow_controllers().push_back(
+        link_cap(tuning->flow_period_ms, tuning->flow_bytes_per_period));
+  else if (s.max_bytes_per_s > 0)
+    qos.flow_controllers().push_back(
+        link_cap(kLinkCapPeriodMs, s.max_bytes_per_s * kLinkCapPeriodMs / 1000));
   return qos;
 }
 
@@ -159,11 +184,11 @@ std::vector<std::pair<std::string, std::string>> security_properties(const DdsSe
 Participant::Participant(const DdsSettings& settings, const std::string& name,
                          const std::string& identity, Logger logger,
                          fdds::DomainParticipantListener* listener)
-    : settings_(settings), logger_(std::move(logger)) {
+    : settings_(settings), tuning_(link_tuning(settings)), logger_(std::move(logger)) {
   auto* factory = fdds::DomainParticipantFactory::get_instance();
   participant_ = factory->create_participant(static_cast<fdds::DomainId_t>(settings.domain_id),
-                                             participant_qos(settings, name, identity), listener,
-                                             fdds::StatusMask::none());
+                                             participant_qos(settings, name, identity, tuning_),
+                                             listener, fdds::StatusMask::none());
   if (!participant_)
     throw StartupError(
         "cannot create DDS participant on domain " + std::to_string(settings.domain_id) +
@@ -188,7 +213,9 @@ Participant::Participant(const DdsSettings& settings, const std::string& name,
                 : settings.shared_memory                                 ? "network"
                                                                          : "network, UDPv4 only",
                 settings.security.enabled ? "; DDS-Security as '" + identity + "'" : std::string());
-  if (settings.max_bytes_per_s > 0)
+  if (tuning_)
+    logger_->info("{}", describe(settings.link, *tuning_));
+  else if (settings.max_bytes_per_s > 0)
     logger_->info("keyframe writer capped at {} bytes/s (flow controller, {} ms periods)",
                   settings.max_bytes_per_s, kLinkCapPeriodMs);
 }
@@ -215,14 +242,18 @@ fdds::DataWriter* Participant::writer(fdds::Topic* topic, Stream stream) {
   qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
   qos.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
   qos.data_sharing().off();
-  qos.reliable_writer_qos().times.heartbeatPeriod =
-      Duration_t(static_cast<long double>(settings_.heartbeat_period_s));
+  qos.reliable_writer_qos().times.heartbeatPeriod = Duration_t(static_cast<long double>(
+      tuning_ ? tuning_->heartbeat_period_s : settings_.heartbeat_period_s));
+  if (tuning_) {
+    // A NACK is answered at once: on a slow link a repair waits behind data anyway.
+    qos.reliable_writer_qos().times.nackResponseDelay = Duration_t(0, 0);
+  }
   qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
   switch (stream) {
     case Stream::kKeyframes:
       qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
       qos.history().depth = settings_.keyframe_history_depth;
-      if (settings_.max_bytes_per_s > 0) {
+      if (tuning_ || settings_.max_bytes_per_s > 0) {
         // Under a cap a small KEEP_LAST starves and a deep queue only adds latency: keep
         // two samples and refuse a write quickly, the outbox sends it again later.
         qos.publish_mode().kind = fdds::ASYNCHRONOUS_PUBLISH_MODE;
@@ -237,6 +268,11 @@ fdds::DataWriter* Participant::writer(fdds::Topic* topic, Stream stream) {
     case Stream::kStats:
       qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
       qos.history().depth = 1;
+      if (tuning_) {
+        // Through the link's pacing too: a stats sample sent past it would queue in the radio.
+        qos.publish_mode().kind = fdds::ASYNCHRONOUS_PUBLISH_MODE;
+        qos.publish_mode().flow_controller_name = kLinkCapName;
+      }
       break;
     case Stream::kAcks:
       qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
@@ -245,6 +281,10 @@ fdds::DataWriter* Participant::writer(fdds::Topic* topic, Stream stream) {
   }
   fdds::DataWriter* writer = publisher_->create_datawriter(topic, qos);
   if (!writer) throw StartupError("cannot create DDS writer on " + topic->get_name());
+  // The entity id names this writer's submessages on the wire (a capture's accounting reads it).
+  const auto& id = writer->guid().entityId.value;
+  logger_->info("DDS writer on '{}': entity {:02x}{:02x}{:02x}.{:02x}", topic->get_name(), id[0],
+                id[1], id[2], id[3]);
   return writer;
 }
 

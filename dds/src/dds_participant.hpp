@@ -10,12 +10,14 @@
 #include <fastdds/dds/topic/TypeSupport.hpp>
 
 #include <map>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
+#include "keyfleet/dds/link_tuning.hpp"
 
 namespace keyfleet::dds {
 
@@ -44,6 +46,7 @@ class Participant {
 
  private:
   DdsSettings settings_;
+  std::optional<LinkTuning> tuning_;  // a radio link's derived settings, if any
   Logger logger_;
   fdds::DomainParticipant* participant_ = nullptr;
   fdds::Publisher* publisher_ = nullptr;

@@ -91,6 +91,13 @@ AgentOutcome AgentRunner::drain(const StopToken& stop) {
   while (agent_.pending() > 0 && Clock::now() < deadline && !stop.requested())
     tick(milliseconds(50));
   const auto pending = agent_.pending();
+  if (config_.linger_s > 0 && !stop.requested()) {
+    logger_->info("drained ({} pending); lingering {:g} s with nothing to send", pending,
+                  config_.linger_s);
+    const auto linger_end = Clock::now() + seconds(config_.linger_s);
+    while (Clock::now() < linger_end && !stop.requested()) tick(milliseconds(50));
+    logger_->info("lingering done");
+  }
   agent_.publish_stats(!stop.requested(), wall_time_ns());
   if (!link_.flush_stats(milliseconds(3000)) && link_.matched_stations() > 0)
     logger_->warn("final stats not acknowledged by the station within 3 s");

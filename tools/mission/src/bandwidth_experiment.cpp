@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <ctime>
@@ -67,14 +68,16 @@ ExperimentResult BandwidthExperiment::run(const StopToken& stop) {
     links.push_back(link);
   }
   for (const auto& link : links)
-    for (int drones : config_.drones)
-      for (const auto& profile : config_.profiles) {
-        if (stop.requested()) {
-          result.interrupted = true;
-          break;
+    for (const auto& security : config_.security)
+      for (int drones : config_.drones)
+        for (const auto& profile : config_.profiles) {
+          if (stop.requested()) {
+            result.interrupted = true;
+            break;
+          }
+          result.missions.push_back(
+              run_mission(dir.string(), link, security == "on", drones, profile, stop));
         }
-        result.missions.push_back(run_mission(dir.string(), link, drones, profile, stop));
-      }
   if (stop.requested()) result.interrupted = true;
 
   write_experiment_json(result, config_, (dir / "results.json").string());
@@ -92,18 +95,23 @@ ExperimentResult BandwidthExperiment::run(const StopToken& stop) {
 }
 
 ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const std::string& link,
-                                                   int drones, const LinkProfileConfig& profile,
+                                                   bool security, int drones,
+                                                   const LinkProfileConfig& profile,
                                                    const StopToken& stop) {
   ExperimentMission out;
   out.link = link;
+  out.security = security;
   out.profile = profile;
   out.drones = drones;
-  out.name = "d" + std::to_string(drones) + "-" + link + "-" + profile.name;
+  out.name = "d" + std::to_string(drones) + "-" + link + "-" + profile.name +
+             (security ? "-sec" : "-plain");
   progress_ << "\n=== " << out.name << " ===\n" << std::flush;
 
   MissionConfig mission = config_.mission;
   mission.name = out.name;
   mission.drones = drones;
+  mission.security = security;
+  size_drain(mission, profile);
   mission.run_root = (fs::path(dir) / "missions").string();
   std::vector<std::string> robot_ids;
   for (int i = 0; i < drones; ++i) robot_ids.push_back(mission.robot_id_prefix + std::to_string(i));
@@ -127,11 +135,23 @@ ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const
       return out;
     }
     out.notes = netns->notes();
-    out.dds_cap_bytes_per_s =
-        static_cast<std::uint64_t>(static_cast<double>(rate) * config_.netns_dds_cap_fraction);
-    if (out.dds_cap_bytes_per_s > 0)
-      out.notes.push_back("DDS flow controller at " + std::to_string(out.dds_cap_bytes_per_s) +
-                          " bytes/s per agent (netns_dds_cap_fraction of the link rate)");
+    if (config_.dds_link && profile.rate_kbit_s > 0) {
+      out.dds_link = true;
+      mission.agent.dds.link.rate_kbit_s = profile.rate_kbit_s;
+      mission.station.dds.link.rate_kbit_s = profile.rate_kbit_s;
+      out.dds_cap_bytes_per_s =
+          static_cast<std::uint64_t>(static_cast<double>(rate) * mission.agent.dds.link.pacing);
+      out.notes.push_back("DDS tuned for the link (dds.link): pacing " +
+                          std::to_string(mission.agent.dds.link.pacing) + " of the rate, MTU " +
+                          std::to_string(mission.agent.dds.link.mtu_bytes));
+    } else {
+      out.dds_cap_bytes_per_s =
+          static_cast<std::uint64_t>(static_cast<double>(rate) * config_.netns_dds_cap_fraction);
+      if (out.dds_cap_bytes_per_s > 0)
+        out.notes.push_back("DDS flow controller at " + std::to_string(out.dds_cap_bytes_per_s) +
+                            " bytes/s per agent (netns_dds_cap_fraction of the link rate)");
+    }
+    mission.agent.linger_s = std::max(mission.agent.linger_s, config_.idle_window_s);
     mission.station.dds.transport = DdsSettings::Transport::kNetwork;
     mission.station.dds.shared_memory = false;
     mission.station.dds.initial_peers = netns->drone_addresses();
@@ -145,7 +165,7 @@ ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const
       agent.dds.initial_peers = {links->station_address(i)};
     };
   }
-  mission.agent.dds.max_bytes_per_s = out.dds_cap_bytes_per_s;
+  if (!out.dds_link) mission.agent.dds.max_bytes_per_s = out.dds_cap_bytes_per_s;
   for (const auto& note : out.notes) progress_ << "link: " << note << "\n";
 
   const auto start = std::chrono::steady_clock::now();
@@ -189,6 +209,24 @@ ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const
             << " s\n"
             << std::flush;
   return out;
+}
+
+void BandwidthExperiment::size_drain(MissionConfig& mission,
+                                     const LinkProfileConfig& profile) const {
+  const auto& source = mission.agent.source;
+  if (profile.rate_kbit_s <= 0 || source.max_frames == 0) return;
+  const double flight_s = static_cast<double>(source.max_frames) / source.fps;
+  const double offered = config_.offered_bytes_per_s * flight_s;
+  // What the flight offers beyond what the link carries during it, at the rate left after
+  // the headers (about 0.8 of it), plus the margin.
+  const double link_bytes_per_s = profile.rate_kbit_s * 1000.0 / 8.0 * 0.8;
+  const double drain =
+      std::max(0.0, offered / link_bytes_per_s - flight_s) + config_.drain_margin_s;
+  mission.agent.drain_timeout_s = std::max(mission.agent.drain_timeout_s, drain);
+  const double needed = mission.agent.wait_for_station_s + flight_s * 1.5 +
+                        mission.agent.drain_timeout_s + mission.agent.linger_s +
+                        config_.idle_window_s + 30.0;
+  mission.agent_timeout_s = std::max(mission.agent_timeout_s, needed);
 }
 
 std::string find_report_script() {

@@ -29,6 +29,17 @@ void visit(V& v, BandwidthExperimentConfig& c) {
             return l.empty() ? std::string("must not be empty") : std::string();
           }));
   v.field("netns_dds_cap_fraction", c.netns_dds_cap_fraction, between(0.0, 1.0));
+  v.field("dds_link", c.dds_link);
+  v.field("security", c.security,
+          Check<std::vector<std::string>>([](const std::vector<std::string>& modes) {
+            for (const auto& m : modes)
+              if (m != "on" && m != "off") return std::string("each must be on or off");
+            return modes.empty() ? std::string("must not be empty") : std::string();
+          }));
+  v.field("offered_bytes_per_s", c.offered_bytes_per_s, between(0.0, 1e9));
+  v.field("drain_margin_s", c.drain_margin_s, between(0.0, 3600.0));
+  v.field("idle_window_s", c.idle_window_s, between(0.0, 600.0));
+  v.field("capture", c.capture);
   v.field("bin_s", c.bin_s, between(0.01, 60.0));
   v.field("python", c.python);
   v.section("mission", c.mission);

@@ -7,6 +7,7 @@
 
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/common/governance.hpp"
 #include "keyfleet/common/security_files.hpp"
 #include "keyfleet/common/topic_names.hpp"
 #include "keyfleet/mission/child_process.hpp"
@@ -61,6 +62,8 @@ std::string criteria(const std::vector<std::string>& topics) {
 }  // namespace
 
 std::string governance_xml() {
+  const GovernanceProtection& p = kFleetGovernance;
+  const auto kind = [](bool on, const char* what) { return on ? std::string(what) : "NONE"; };
   return R"(<?xml version="1.0" encoding="UTF-8"?>
 <dds xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance">
   <domain_access_rules>
@@ -69,18 +72,25 @@ std::string governance_xml() {
          std::to_string(kMaxDomain) + R"(</max></id_range></domains>
       <allow_unauthenticated_participants>false</allow_unauthenticated_participants>
       <enable_join_access_control>true</enable_join_access_control>
-      <discovery_protection_kind>ENCRYPT</discovery_protection_kind>
-      <liveliness_protection_kind>ENCRYPT</liveliness_protection_kind>
-      <rtps_protection_kind>NONE</rtps_protection_kind>
+      <discovery_protection_kind>)" +
+         kind(p.discovery, "ENCRYPT") + R"(</discovery_protection_kind>
+      <liveliness_protection_kind>)" +
+         kind(p.liveliness, "ENCRYPT") + R"(</liveliness_protection_kind>
+      <rtps_protection_kind>)" +
+         kind(p.rtps, "SIGN") + R"(</rtps_protection_kind>
       <topic_access_rules>
         <topic_rule>
           <topic_expression>*</topic_expression>
-          <enable_discovery_protection>true</enable_discovery_protection>
-          <enable_liveliness_protection>true</enable_liveliness_protection>
+          <enable_discovery_protection>)" +
+         std::string(p.discovery ? "true" : "false") + R"(</enable_discovery_protection>
+          <enable_liveliness_protection>)" +
+         std::string(p.liveliness ? "true" : "false") + R"(</enable_liveliness_protection>
           <enable_read_access_control>true</enable_read_access_control>
           <enable_write_access_control>true</enable_write_access_control>
-          <metadata_protection_kind>SIGN</metadata_protection_kind>
-          <data_protection_kind>ENCRYPT</data_protection_kind>
+          <metadata_protection_kind>)" +
+         kind(p.metadata, "SIGN") + R"(</metadata_protection_kind>
+          <data_protection_kind>)" +
+         kind(p.payload, "ENCRYPT") + R"(</data_protection_kind>
         </topic_rule>
       </topic_access_rules>
     </domain_rule>
@@ -139,16 +149,17 @@ void write_fleet_credentials(const FleetCredentialsRequest& request, Logger logg
   const std::string days = std::to_string(request.valid_days);
   const SecurityFiles ca_files = security_files(dir.string(), kStationIdentity);
   const std::string ca_key = (dir / "ca.key.pem").string();
-  openssl.run("make the CA", {"req",      "-x509",
-                              "-newkey",  "ec",
-                              "-pkeyopt", "ec_paramgen_curve:prime256v1",
-                              "-nodes",   "-sha256",
-                              "-days",    days,
-                              "-subj",    "/CN=keyfleet fleet CA",
-                              "-keyout",  ca_key,
-                              "-out",     ca_files.ca,
-                              "-addext",  "basicConstraints=critical,CA:TRUE",
-                              "-addext",  "keyUsage=critical,keyCertSign,cRLSign,digitalSignature"});
+  openssl.run("make the CA",
+              {"req",      "-x509",
+               "-newkey",  "ec",
+               "-pkeyopt", "ec_paramgen_curve:prime256v1",
+               "-nodes",   "-sha256",
+               "-days",    days,
+               "-subj",    "/CN=keyfleet fleet CA",
+               "-keyout",  ca_key,
+               "-out",     ca_files.ca,
+               "-addext",  "basicConstraints=critical,CA:TRUE",
+               "-addext",  "keyUsage=critical,keyCertSign,cRLSign,digitalSignature"});
 
   const auto now = std::chrono::system_clock::now();
   const std::string not_before = utc_text(now - std::chrono::hours(1));

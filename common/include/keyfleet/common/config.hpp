@@ -20,6 +20,22 @@ struct DdsSecurity {
   std::string directory;  // the credentials folder; relative paths from the config file's folder
 };
 
+// A radio link between a robot and the station (or its relay), for which the DDS adapter tunes
+// its transport (dds/link_tuning.hpp): user data in RTPS messages that fit the path MTU (no IP
+// fragments, whose loss would lose a whole datagram), paced below the link's rate so control
+// traffic is never queued behind data, reliability timing sized to the rate, and discovery that
+// announces rarely and only to the configured peers. rate_kbit_s 0 = no radio link (one machine
+// or a fast LAN): Fast DDS's own sizes and the max_bytes_per_s cap, if any, apply.
+struct DdsLinkProfile {
+  double rate_kbit_s = 0;  // the link's rate in each direction, kbit/s (1 kbit = 1000 bit)
+  int mtu_bytes = 1500;    // path MTU (IP packet size) of the link
+  // Share of the rate the robot's data writers may take, their IP/UDP and link headers
+  // included; the rest is left to heartbeats, acknowledgements and discovery.
+  double pacing = 0.9;
+  double announcement_period_s = 5.0;  // participant announcements on the link
+  double lease_duration_s = 20.0;      // a peer silent this long is dropped
+};
+
 struct DdsSettings {
   enum class Transport {
     kLocalhost,  // SHM + UDPv4 on 127.0.0.1 only, no multicast: one-machine missions and tests
@@ -41,6 +57,7 @@ struct DdsSettings {
   // 10 ms periods); 0 = unlimited. When capped, a full writer refuses a keyframe at once
   // and the outbox sends it again later.
   std::uint64_t max_bytes_per_s = 0;
+  DdsLinkProfile link;  // rate_kbit_s > 0 overrides max_bytes_per_s, the periods and heartbeat
   DdsSecurity security;
 };
 
@@ -182,7 +199,10 @@ struct AgentConfig {
   double stats_period_s = 1.0;       // AgentStats publication period
   double wait_for_station_s = 10.0;  // at start, wait this long for a station before streaming
   double drain_timeout_s = 60.0;     // at the end, wait this long for every acknowledgement
-  std::string log_level = "info";    // trace, debug, info, warn, error
+  // After draining, stay connected this long with nothing to send (answering the station, and
+  // letting an experiment measure what an idle connected robot costs its link).
+  double linger_s = 0.0;
+  std::string log_level = "info";  // trace, debug, info, warn, error
 };
 
 // What the station accepts from a robot, checked before any image is decoded. Each knob has a

@@ -24,7 +24,9 @@ struct RobotOutcome {
 
 struct ExperimentMission {
   std::string name;
-  std::string link;  // flow_control | netns
+  std::string link;       // flow_control | netns
+  bool security = true;   // DDS-Security on
+  bool dds_link = false;  // DDS tuned for the link (dds.link from the profile)
   LinkProfileConfig profile;
   int drones = 0;
   std::uint64_t dds_cap_bytes_per_s = 0;  // per agent; 0 = none
@@ -52,8 +54,13 @@ class BandwidthExperiment {
   ExperimentResult run(const StopToken& stop);
 
  private:
-  ExperimentMission run_mission(const std::string& dir, const std::string& link, int drones,
-                                const LinkProfileConfig& profile, const StopToken& stop);
+  ExperimentMission run_mission(const std::string& dir, const std::string& link, bool security,
+                                int drones, const LinkProfileConfig& profile,
+                                const StopToken& stop);
+
+  // Raises the agents' drain_timeout_s (and the mission's agent timeout) to what the flight
+  // offers over the profile's rate, so that a slow link is not cut short by a fixed timeout.
+  void size_drain(MissionConfig& mission, const LinkProfileConfig& profile) const;
 
   BandwidthExperimentConfig config_;
   MissionBinaries binaries_;

@@ -29,6 +29,23 @@ struct BandwidthExperimentConfig {
   // headers fit under it; at 0.9 a 500 kbit/s tbf link overflowed and most bytes on the wire
   // were repairs (0 = no DDS cap, the link alone limits).
   double netns_dds_cap_fraction = 0.7;
+  // netns: the agents and the station tune DDS for each profile's link (dds.link.rate_kbit_s =
+  // the profile's rate; MTU, pacing and discovery periods from mission.agent.dds.link and
+  // mission.station.dds.link). false: only the older cap above, in 10 ms periods.
+  bool dds_link = true;
+  // Each mission with DDS-Security ("on"), without ("off"), or both, in this order.
+  std::vector<std::string> security = {"on"};
+  // Sizing each mission's drain to its link: the keyframe bytes a drone is expected to offer per
+  // second of flight. The agents' drain_timeout_s becomes at least the flight's offered bytes
+  // over the link's rate plus drain_margin_s, so "delivered" measures the transport.
+  double offered_bytes_per_s = 60000;
+  double drain_margin_s = 30;
+  // netns: each agent stays connected this long after draining (agent linger_s): the idle
+  // chatter of a connected fleet is measured over it.
+  double idle_window_s = 10;
+  // netns: tcpdump on each drone's end of its link, classified by RTPS submessage (where the
+  // bytes go: keyframe data, repairs, control, discovery, security, other topics).
+  bool capture = true;
   double bin_s = 1.0;                       // bandwidth-over-time bins (s)
   std::string python = "/usr/bin/python3";  // runs tools/report/bandwidth_report.py (matplotlib)
   MissionConfig mission;  // agent and station templates; name and drones are set per mission
