@@ -24,6 +24,7 @@ BUILD_PACKAGES=(
   libcpp-httplib-dev
   libsqlite3-dev
   libjpeg62-turbo-dev
+  libpcap-dev
 )
 
 # What the programs load at run time, for the images' runtime stages: no compiler, no -dev
@@ -45,7 +46,7 @@ PACKAGES=(
   clang-14 libclang-rt-14-dev libfuzzer-14-dev
   procps
   openssl
-  iproute2 nftables
+  iproute2 nftables tcpdump
   python3-torch python3-onnx python3-opencv python3-numpy python3-yaml
   python3-matplotlib
   chromium chromium-driver python3-selenium
