@@ -3,6 +3,8 @@
 #   scripts/results.sh                 # both blocks (about 5 + 8 minutes here, as root)
 #   scripts/results.sh eval            # `keyfleet eval configs/eval.yaml` only
 #   scripts/results.sh bandwidth       # `keyfleet experiment bandwidth configs/experiment_bandwidth.yaml` only
+#   scripts/results.sh radio           # the weak-radio matrix (configs/experiment_bandwidth_radio.yaml,
+#                                      # about 90 minutes as root): docs/results/<date>-radio-links.md
 #   scripts/results.sh ocr             # `keyfleet ocr eval` on the real sets (about 40 minutes)
 #   scripts/results.sh seeds           # Fig. 6 over 3 forward- and 3 side-looking streets
 #                                      # (`keyfleet eval --seeds`, about 30 minutes here)
@@ -203,6 +205,36 @@ places_block() {
   echo "README results:places block updated"
 }
 
+# The weak-radio matrix (configs/experiment_bandwidth_radio.yaml, as root: network namespaces): a dated
+# page docs/results/<date>-radio-links.md with its tables; the README's radio block points to it.
+radio_block() {
+  local runs="$root/runs"
+  mkdir -p "$runs" "$root/docs/results"
+  local start=$SECONDS
+  "$build/bin/keyfleet" experiment bandwidth "$root/configs/experiment_bandwidth_radio.yaml" --run-root "$runs"
+  local took=$((SECONDS - start))
+  local out page
+  out=$(ls -dt "$runs"/radio-* | head -1)
+  page="docs/results/$(date -u +%Y-%m-%d)-radio-links.md"
+  {
+    echo "# Radio links: the matrix, $when"
+    echo
+    echo "Measured on $machine (shared: figures of time are noisy) with"
+    echo "\`scripts/results.sh radio\` ($took s): \`keyfleet experiment bandwidth"
+    echo "configs/experiment_bandwidth_radio.yaml\`. Per mission, medians over its robots (the worst p95)."
+    echo "Goodput: stored keyframe payload over the time the keyframe writer had data or repairs"
+    echo "on the link, as a fraction of the link's rate (a link faster than the ~55 KB/s a drone"
+    echo "offers is never backlogged, so its goodput is the offered load). wire/payload: the"
+    echo "drone's bytes on its link, headers, control, discovery and security included, over the"
+    echo "payload stored. Idle: bytes/s each way while the connected agent had nothing to send."
+    echo
+    "$python" "$root/tools/report/radio_table.py" "$out"
+  } > "$root/$page"
+  printf '*Measured %s on %s, `scripts/results.sh radio`: [%s](%s).*\n\n' "$when" "$machine" \
+    "$page" "$page" | replace_block radio
+  echo "$page written from $out"
+}
+
 blocks=("$@")
 [ ${#blocks[@]} -eq 0 ] && blocks=(eval bandwidth)
 for block in "${blocks[@]}"; do
@@ -212,6 +244,8 @@ for block in "${blocks[@]}"; do
     ocr) ocr_block ;;
     seeds) seeds_block ;;
     places) places_block ;;
-    *) echo "results.sh: unknown block '$block' (eval, bandwidth, ocr, seeds, places)" >&2; exit 2 ;;
+    radio) radio_block ;;
+    *) echo "results.sh: unknown block '$block' (eval, bandwidth, radio, ocr, seeds, places)" >&2
+       exit 2 ;;
   esac
 done

@@ -247,6 +247,10 @@ fdds::DataWriter* Participant::writer(fdds::Topic* topic, Stream stream) {
   if (tuning_) {
     // A NACK is answered at once: on a slow link a repair waits behind data anyway.
     qos.reliable_writer_qos().times.nackResponseDelay = Duration_t(0, 0);
+    // Fast DDS piggybacks a heartbeat on every message while the history is full (a capped
+    // writer's two samples: most of the time), and each one draws an acknack: 32 bytes more per
+    // message one way, a message back. The periodic heartbeat above suffices.
+    qos.reliable_writer_qos().disable_heartbeat_piggyback = true;
   }
   qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
   switch (stream) {

@@ -12,9 +12,10 @@ namespace {
 
 // Fast DDS's flow controller period is a whole number of milliseconds.
 constexpr double kShortestPeriodMs = 1.0;
-// A HEARTBEAT and the ACKNACK it asks for, each in an RTPS message of its own with its IP, UDP
-// and link headers: about 120 bytes each way.
-constexpr double kHeartbeatExchangeBytes = 120.0;
+// A HEARTBEAT and the ACKNACK it asks for, each in an RTPS message of its own (header, INFO_DST,
+// the submessage, Debian's statistics submessage) with its IP, UDP and link headers: about 170
+// bytes each way, as captured.
+constexpr double kHeartbeatExchangeBytes = 170.0;
 // Share of the link the periodic heartbeats of one writer and their answers may take while
 // samples are unacknowledged.
 constexpr double kHeartbeatShare = 0.02;
@@ -23,11 +24,12 @@ constexpr double kHeartbeatShare = 0.02;
 constexpr double kMinHeartbeatS = 0.05;
 constexpr double kMaxHeartbeatS = 2.0;
 
-// RTPS framing of a data fragment: message header, INFO_DST, INFO_TS, DATA_FRAG's header and a
-// piggybacked HEARTBEAT; Debian's build (FASTDDS_STATISTICS) adds a 60-byte statistics
-// submessage to every message it sends.
+// RTPS framing of a data fragment: message header, INFO_DST, INFO_TS and DATA_FRAG's header;
+// Debian's build (FASTDDS_STATISTICS) adds a 60-byte statistics submessage to every message.
+// Fast DDS also reserves room for a piggybacked HEARTBEAT, which the tuned writers do not send.
 constexpr std::uint32_t kRtpsHeader = 20;
-constexpr std::uint32_t kFramingAroundFragment = 16 + 12 + 36 + 32;
+constexpr std::uint32_t kFramingAroundFragment = 16 + 12 + 36;
+constexpr std::uint32_t kPiggybackHeartbeat = 32;
 constexpr std::uint32_t kStatisticsSubmessage = 60;
 // AES-GCM-GMAC, per Fast DDS 2.9.1's transform: a fragment encrypted with its header (20), length
 // (4), tag (16), receiver-MAC count (4) and up to 3 of padding; each signed submessage's
@@ -46,7 +48,7 @@ constexpr std::uint32_t kMessageReserve = 267;
 MessageOverhead data_message_overhead(const GovernanceProtection* p) {
   MessageOverhead o;
   o.added = kRtpsHeader + kFramingAroundFragment + kStatisticsSubmessage;
-  o.reserved = o.added;
+  o.reserved = o.added + kPiggybackHeartbeat;
   if (p && p->payload) {
     o.added += kPayloadProtection;
     o.reserved += kPayloadReserve;

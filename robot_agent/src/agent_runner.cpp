@@ -91,9 +91,8 @@ AgentOutcome AgentRunner::drain(const StopToken& stop) {
   while (agent_.pending() > 0 && Clock::now() < deadline && !stop.requested())
     tick(milliseconds(50));
   const auto pending = agent_.pending();
-  if (config_.linger_s > 0 && !stop.requested()) {
-    logger_->info("drained ({} pending); lingering {:g} s with nothing to send", pending,
-                  config_.linger_s);
+  if (config_.linger_s > 0 && pending == 0 && !stop.requested()) {
+    logger_->info("drained; lingering {:g} s with nothing to send", config_.linger_s);
     const auto linger_end = Clock::now() + seconds(config_.linger_s);
     while (Clock::now() < linger_end && !stop.requested()) tick(milliseconds(50));
     logger_->info("lingering done");

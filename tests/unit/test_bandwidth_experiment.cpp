@@ -184,6 +184,79 @@ TEST(ExperimentConfig, BadProfileKeysAndLinkKindsNameTheKey) {
       << error_of("name: ../../etc\n");
 }
 
+TEST(ExperimentConfig, RadioKeysAndTheLinkProfileRoundTrip) {
+  const auto config = parse_bandwidth_experiment_config(R"(
+security: [on, off]
+dds_link: false
+offered_bytes_per_s: 42000
+drain_margin_s: 12
+idle_window_s: 4
+capture: false
+mission:
+  agent:
+    dds:
+      link: {rate_kbit_s: 250, mtu_bytes: 1400, pacing: 0.8, announcement_period_s: 3}
+)",
+                                                        "radio.yaml");
+  EXPECT_EQ(config.security, (std::vector<std::string>{"on", "off"}));
+  EXPECT_FALSE(config.dds_link);
+  EXPECT_DOUBLE_EQ(config.offered_bytes_per_s, 42000);
+  EXPECT_DOUBLE_EQ(config.drain_margin_s, 12);
+  EXPECT_DOUBLE_EQ(config.idle_window_s, 4);
+  EXPECT_FALSE(config.capture);
+  const DdsLinkProfile& link = config.mission.agent.dds.link;
+  EXPECT_DOUBLE_EQ(link.rate_kbit_s, 250);
+  EXPECT_EQ(link.mtu_bytes, 1400);
+  EXPECT_DOUBLE_EQ(link.pacing, 0.8);
+  EXPECT_DOUBLE_EQ(link.announcement_period_s, 3);
+  EXPECT_DOUBLE_EQ(link.lease_duration_s, 20) << "unset keys keep their defaults";
+  const auto again = parse_bandwidth_experiment_config(to_yaml(config), "round trip");
+  EXPECT_EQ(again.security, config.security);
+  EXPECT_EQ(again.mission.agent.dds.link.mtu_bytes, 1400);
+}
+
+TEST(ExperimentConfig, BadRadioValuesNameTheKey) {
+  const auto error_of = [](const std::string& yaml) {
+    try {
+      parse_bandwidth_experiment_config(yaml, "bad.yaml");
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(error_of("security: [maybe]\n").find("security"), std::string::npos);
+  EXPECT_NE(error_of("security: []\n").find("security"), std::string::npos);
+  EXPECT_NE(error_of("mission: {agent: {dds: {link: {mtu_bytes: 100}}}}\n").find("mtu_bytes"),
+            std::string::npos);
+  EXPECT_NE(error_of("mission: {agent: {dds: {link: {pacing: 1.5}}}}\n").find("pacing"),
+            std::string::npos);
+  EXPECT_NE(error_of("mission: {agent: {dds: {link: {rate: 5}}}}\n").find("link.rate: unknown key"),
+            std::string::npos)
+      << error_of("mission: {agent: {dds: {link: {rate: 5}}}}\n");
+}
+
+TEST(LogTime, FindsTheFirstLineWithANeedleOrTheFirstLine) {
+  const auto path = std::filesystem::temp_directory_path() / "keyfleet_log_time_test.log";
+  {
+    std::ofstream log(path);
+    log << "2026-05-01 17:33:30.100 [agent drone_0] info effective configuration:\n"
+        << "robot_id: drone_0\n"
+        << "2026-05-01 17:33:31.250 [agent drone_0] info station matched\n"
+        << "2026-05-01 17:33:40.000 [agent drone_0] info drained; lingering 10 s\n"
+        << "2026-05-01 17:33:50.000 [agent drone_0] info lingering done\n";
+  }
+  const auto first = log_time_of(path.string(), {});
+  const auto matched = log_time_of(path.string(), {"station matched"});
+  const auto linger = log_time_of(path.string(), {"lingering"});
+  const auto done = log_time_of(path.string(), {"lingering done"});
+  ASSERT_TRUE(first && matched && linger && done);
+  EXPECT_EQ(*matched - *first, 1'150'000'000);
+  EXPECT_EQ(*done - *linger, 10'000'000'000);
+  EXPECT_FALSE(log_time_of(path.string(), {"never logged"}).has_value());
+  EXPECT_FALSE(log_time_of("/nonexistent.log", {}).has_value());
+  std::filesystem::remove(path);
+}
+
 TEST(StationRecords, MissingDatabaseIsAStartupErrorNamingTheFile) {
   try {
     read_station_records("/nonexistent/station.sqlite");

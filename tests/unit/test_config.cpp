@@ -523,7 +523,7 @@ TEST(ShippedConfigs, EveryScenarioAndMissionFileInConfigsLoads) {
   EXPECT_GT(scenarios, 0);
   EXPECT_GT(missions, 0);
   EXPECT_EQ(evaluations, 2);  // eval.yaml (the demo's street), eval_side.yaml
-  EXPECT_EQ(experiments, 1);
+  EXPECT_EQ(experiments, 2);  // experiment_bandwidth.yaml, experiment_bandwidth_radio.yaml
 }
 
 }  // namespace

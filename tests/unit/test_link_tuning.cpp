@@ -23,10 +23,10 @@ TEST(LinkTuning, HalfAMegabitWithoutSecurityByHand) {
   const LinkTuning t = derive_link_tuning(link(500), nullptr);
   EXPECT_EQ(t.flow_period_ms, 26u);
   EXPECT_EQ(t.message_bytes, 1420u);
-  // Around the fragment: RTPS header 20, INFO_DST 16, INFO_TS 12, DATA_FRAG 36, HEARTBEAT 32,
-  // statistics 60; Fast DDS reserves exactly that without security.
-  EXPECT_EQ(t.fragment_bytes, 1420u - 176u);
-  EXPECT_EQ(t.flow_bytes_per_period, 1420u);
+  // Around the fragment: RTPS header 20, INFO_DST 16, INFO_TS 12, DATA_FRAG 36, statistics 60;
+  // Fast DDS reserves 32 more for a piggybacked heartbeat, which the tuned writer never sends.
+  EXPECT_EQ(t.fragment_bytes, 1420u - 144u);
+  EXPECT_EQ(t.flow_bytes_per_period, 1420u + 32u);
   EXPECT_TRUE(t.messages_fit_mtu);
   EXPECT_NEAR(t.paced_wire_bytes_per_s, (1420.0 + kWireHeaders) / 0.026, 1e-6);
   EXPECT_LE(t.paced_wire_bytes_per_s, 56250.0);
@@ -80,9 +80,9 @@ TEST(LinkTuning, AFastLinkGetsSeveralMessagesPerMillisecond) {
 }
 
 TEST(LinkTuning, HeartbeatsTakeAboutTwoPercentOfASlowLinkAndAreBoundedOnFastOnes) {
-  // A heartbeat exchange of ~120 bytes each way at 2 % of 12,500 B/s: every 0.48 s.
-  EXPECT_NEAR(derive_link_tuning(link(100), nullptr).heartbeat_period_s, 0.48, 1e-9);
-  EXPECT_NEAR(derive_link_tuning(link(250), nullptr).heartbeat_period_s, 0.192, 1e-9);
+  // A heartbeat exchange of ~170 bytes each way at 2 % of 12,500 B/s: every 0.68 s.
+  EXPECT_NEAR(derive_link_tuning(link(100), nullptr).heartbeat_period_s, 0.68, 1e-9);
+  EXPECT_NEAR(derive_link_tuning(link(250), nullptr).heartbeat_period_s, 0.272, 1e-9);
   EXPECT_DOUBLE_EQ(derive_link_tuning(link(10000), nullptr).heartbeat_period_s, 0.05);
   EXPECT_DOUBLE_EQ(derive_link_tuning(link(5), nullptr).heartbeat_period_s, 2.0);
 }

@@ -9,12 +9,15 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <set>
 #include <sstream>
 
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/common/topic_names.hpp"
 #include "keyfleet/mission/experiment_config.hpp"
 #include "keyfleet/mission/link_shaping.hpp"
 #include "keyfleet/mission/mission_config.hpp"
+#include "keyfleet/mission/wire_capture.hpp"
 
 namespace keyfleet::mission {
 namespace {
@@ -30,6 +33,27 @@ std::string timestamp() {
 
 std::uint64_t rate_bytes_per_s(double kbit_s) {
   return static_cast<std::uint64_t>(kbit_s * 1000.0 / 8.0);
+}
+
+// The keyframe writer's entity id, as the agent logged it ("... 'keyfleet/keyframes/<id>':
+// entity 000001.03").
+std::set<std::uint32_t> keyframe_writer_entities(const std::string& agent_log) {
+  std::set<std::uint32_t> ids;
+  std::ifstream log(agent_log);
+  const std::string marker = std::string("DDS writer on '") + kKeyframeTopicPrefix;
+  for (std::string line; std::getline(log, line);) {
+    if (line.find(marker) == std::string::npos) continue;
+    const auto at = line.find("entity ");
+    unsigned key = 0, kind = 0;
+    if (at != std::string::npos &&
+        std::sscanf(line.c_str() + at, "entity %6x.%2x", &key, &kind) == 2)
+      ids.insert((key << 8) | kind);
+  }
+  return ids;
+}
+
+double seconds_between(std::int64_t from_ns, std::int64_t to_ns) {
+  return static_cast<double>(to_ns - from_ns) / 1e9;
 }
 
 }  // namespace
@@ -168,6 +192,24 @@ ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const
   if (!out.dds_link) mission.agent.dds.max_bytes_per_s = out.dds_cap_bytes_per_s;
   for (const auto& note : out.notes) progress_ << "link: " << note << "\n";
 
+  std::vector<std::unique_ptr<WireCapture>> captures(robot_ids.size());
+  if (netns && config_.capture) {
+    fs::create_directories(fs::path(dir) / "captures");
+    for (std::size_t i = 0; i < robot_ids.size(); ++i) {
+      WireCaptureOptions options;
+      options.command_prefix = netns->command_prefix(robot_ids[i]);
+      options.interface = netns->drone_interface(i);
+      options.pcap_path =
+          (fs::path(dir) / "captures" / (out.name + "-" + robot_ids[i] + ".pcap")).string();
+      options.log_path = options.pcap_path + ".log";
+      try {
+        captures[i] = std::make_unique<WireCapture>(options);
+      } catch (const StartupError& e) {
+        out.notes.push_back(std::string("no capture for ") + robot_ids[i] + ": " + e.what());
+      }
+    }
+  }
+
   const auto start = std::chrono::steady_clock::now();
   MissionRunner runner(mission, binaries_, logger_, progress_);
   runner.set_hooks(hooks);
@@ -175,6 +217,8 @@ ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const
   out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   out.run_dir = mission_result.run_dir;
   out.failures = mission_result.failures;
+  for (auto& capture : captures)
+    if (capture) capture->stop();
 
   try {
     const auto records =
@@ -194,6 +238,41 @@ ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const
       r.latency_measured = origin.has_value();
       r.metrics.refused_writes = count_refused_writes(log.string());
       r.frames_seen = totals ? totals->frames_seen : 0;
+      r.pending = totals ? totals->keyframes_pending : 0;
+      const auto agent_start = log_time_of(log.string(), {});
+      if (agent_start) {
+        if (const auto matched = log_time_of(log.string(), {"station matched"}))
+          r.matched_s = seconds_between(*agent_start, *matched);
+        for (const auto& k : records.keyframes)
+          if (k.robot_id == robot &&
+              (!r.first_keyframe_s ||
+               seconds_between(*agent_start, k.received_ns) < *r.first_keyframe_s))
+            r.first_keyframe_s = seconds_between(*agent_start, k.received_ns);
+      }
+      const std::size_t index = static_cast<std::size_t>(&robot - robot_ids.data());
+      if (captures[index]) {
+        try {
+          WireAccountingOptions options;
+          const auto quiet_from = log_time_of(log.string(), {"lingering"});
+          const auto quiet_to = log_time_of(log.string(), {"lingering done"});
+          // The first second of the linger still carries the last acknowledgements.
+          if (quiet_from && quiet_to && *quiet_to - *quiet_from > 2'000'000'000LL)
+            options.quiet_window = TimeWindow{*quiet_from + 1'000'000'000LL, *quiet_to};
+          WireAccountant accountant(keyframe_writer_entities(log.string()), options);
+          for (const auto& packet :
+               read_pcap(captures[index]->pcap_path(), netns->drone_addresses()[index]))
+            accountant.add(packet);
+          r.wire_account = accountant.account();
+          if (r.wire_account->keyframe_busy_ns > 0 && profile.rate_kbit_s > 0)
+            r.goodput_fraction = static_cast<double>(r.metrics.payload_bytes) /
+                                 seconds_between(0, r.wire_account->keyframe_busy_ns) /
+                                 (profile.rate_kbit_s * 1000.0 / 8.0);
+        } catch (const StartupError& e) {
+          r.capture_error = e.what();
+        }
+      } else if (netns && config_.capture) {
+        r.capture_error = "no capture ran (see the mission's notes)";
+      }
       std::vector<DeliveredKeyframe> mine;
       for (const auto& k : records.keyframes)
         if (k.robot_id == robot) mine.push_back(k);

@@ -130,11 +130,16 @@ StationRecords read_station_records(const std::string& database_path) {
 }
 
 std::optional<std::int64_t> stream_start_from_log(const std::string& agent_log_path) {
-  std::ifstream log(agent_log_path);
+  return log_time_of(agent_log_path, {"station matched", "streaming anyway"});
+}
+
+std::optional<std::int64_t> log_time_of(const std::string& log_path,
+                                        const std::vector<std::string>& needles) {
+  std::ifstream log(log_path);
   for (std::string line; std::getline(log, line);) {
-    if (line.find("station matched") == std::string::npos &&
-        line.find("streaming anyway") == std::string::npos)
-      continue;
+    bool found = needles.empty();
+    for (const auto& needle : needles) found = found || line.find(needle) != std::string::npos;
+    if (!found) continue;
     std::tm tm{};
     int millis = 0;
     // "2024-05-01 17:33:31.123 [agent] info station matched"

@@ -58,6 +58,12 @@ json robot_json(const RobotOutcome& r) {
   j["saving_vs_vslam"] = m.saving_vs_vslam;
   j["agent_stats_seen"] = m.agent_stats_seen;
   j["bytes_per_bin"] = r.bytes_per_bin;
+  j["pending"] = r.pending;
+  j["matched_s"] = r.matched_s ? json(*r.matched_s) : json(nullptr);
+  j["first_keyframe_s"] = r.first_keyframe_s ? json(*r.first_keyframe_s) : json(nullptr);
+  j["goodput_fraction"] = r.wire_account ? json(r.goodput_fraction) : json(nullptr);
+  j["wire_split"] = r.wire_account ? wire_account_json(*r.wire_account) : json(nullptr);
+  if (!r.capture_error.empty()) j["capture_error"] = r.capture_error;
   return j;
 }
 
@@ -82,6 +88,8 @@ void write_experiment_json(const ExperimentResult& result, const BandwidthExperi
     json j;
     j["name"] = m.name;
     j["link"] = m.link;
+    j["security"] = m.security;
+    j["dds_link"] = m.dds_link;
     j["profile"] = {{"name", m.profile.name},
                     {"rate_kbit_s", m.profile.rate_kbit_s},
                     {"delay_ms", m.profile.delay_ms},
@@ -126,16 +134,19 @@ void write_experiment_csv(const ExperimentResult& result, const std::string& pat
 
 std::string experiment_table(const ExperimentResult& result) {
   std::string table;
-  char line[256];
-  std::snprintf(line, sizeof line, "%-28s %4s %9s %9s %8s %7s %7s %9s %10s %10s %8s %8s\n",
-                "mission", "ok", "delivered", "lat.med", "lat.p95", "dropped", "resent", "payload",
-                "wire", "kB/s/robot", "x stream", "x vslam");
+  char line[512];
+  std::snprintf(line, sizeof line,
+                "%-28s %4s %9s %5s %9s %8s %7s %7s %9s %10s %10s %8s %8s %8s %7s %7s %9s\n",
+                "mission", "ok", "delivered", "lost", "lat.med", "lat.p95", "dropped", "resent",
+                "payload", "wire", "kB/s/robot", "x stream", "x vslam", "goodput", "wire/pl",
+                "1st kf", "idle B/s");
   table += line;
   for (const auto& m : result.missions) {
     std::uint64_t delivered = 0, dropped = 0, resent = 0, payload = 0, wire = 0, stream = 0,
                   vslam = 0;
     bool wire_measured = !m.robots.empty();
-    std::vector<double> medians, p95s, rates;
+    std::vector<double> medians, p95s, rates, goodputs, ratios, firsts, idles;
+    std::uint64_t lost = 0;
     for (const auto& r : m.robots) {
       const RobotMetrics& x = r.metrics;
       delivered += x.delivered;
@@ -153,16 +164,35 @@ std::string experiment_table(const ExperimentResult& result) {
         p95s.push_back(x.latency_p95_ms);
       }
       rates.push_back(x.throughput_bytes_per_s / 1e3);
+      lost += r.pending + x.dropped;
+      if (r.first_keyframe_s) firsts.push_back(*r.first_keyframe_s);
+      if (r.wire_account) {
+        goodputs.push_back(r.goodput_fraction);
+        if (x.payload_bytes > 0)
+          ratios.push_back(static_cast<double>(r.wire_account->tx.total().bytes) /
+                           static_cast<double>(x.payload_bytes));
+        if (r.wire_account->quiet_window) idles.push_back(r.wire_account->quiet_tx_bytes_per_s);
+      }
     }
+    // Per robot medians of the link figures; "-" where nothing was measured.
+    const auto cell = [](const std::vector<double>& values, const char* format) {
+      char text[32] = "-";
+      if (!values.empty()) std::snprintf(text, sizeof text, format, median(values));
+      return std::string(text);
+    };
     // Fleet figures: the median robot's latency, the worst robot's p95.
     const double p95 = p95s.empty() ? 0 : *std::max_element(p95s.begin(), p95s.end());
-    std::snprintf(line, sizeof line,
-                  "%-28s %4s %9llu %7.0fms %6.0fms %7llu %7llu %7sMB %8s%s %10.1f %7.1fx %7.1fx\n",
-                  m.name.c_str(), m.ok ? "yes" : "NO", static_cast<unsigned long long>(delivered),
-                  median(medians), p95, static_cast<unsigned long long>(dropped),
-                  static_cast<unsigned long long>(resent), megabytes(payload).c_str(),
-                  wire_measured ? megabytes(wire).c_str() : "not meas.", wire_measured ? "MB" : "",
-                  median(rates), saving_ratio(stream, payload), saving_ratio(vslam, payload));
+    std::snprintf(
+        line, sizeof line,
+        "%-28s %4s %9llu %5llu %7.0fms %6.0fms %7llu %7llu %7sMB %8s%s %10.1f %7.1fx %7.1fx %8s "
+        "%7s %7s %9s\n",
+        m.name.c_str(), m.ok ? "yes" : "NO", static_cast<unsigned long long>(delivered),
+        static_cast<unsigned long long>(lost), median(medians), p95,
+        static_cast<unsigned long long>(dropped), static_cast<unsigned long long>(resent),
+        megabytes(payload).c_str(), wire_measured ? megabytes(wire).c_str() : "not meas.",
+        wire_measured ? "MB" : "", median(rates), saving_ratio(stream, payload),
+        saving_ratio(vslam, payload), cell(goodputs, "%.2f").c_str(), cell(ratios, "%.2f").c_str(),
+        cell(firsts, "%.1fs").c_str(), cell(idles, "%.0f").c_str());
     table += line;
   }
   return table;

@@ -2,6 +2,7 @@
 // `keyfleet experiment bandwidth`: missions of several fleet sizes over several emulated
 // links, each measured per robot from the station's database, written as results.json,
 // results.csv and (through tools/report/bandwidth_report.py) report.md with plots.
+#include <optional>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -12,6 +13,7 @@
 #include "keyfleet/mission/bandwidth_metrics.hpp"
 #include "keyfleet/mission/experiment_config.hpp"
 #include "keyfleet/mission/mission_runner.hpp"
+#include "keyfleet/mission/rtps_accounting.hpp"
 
 namespace keyfleet::mission {
 
@@ -20,6 +22,17 @@ struct RobotOutcome {
   std::uint64_t frames_seen = 0;
   bool latency_measured = false;             // the stream start was found in the agent log
   std::vector<std::uint64_t> bytes_per_bin;  // from the mission's first receipt
+  std::uint64_t pending = 0;                 // keyframes still in the outbox at the end (lost)
+  // From the agent's start (its log's first line): its station matched (discovery and the
+  // DDS-Security handshake), and its first keyframe stored at the station.
+  std::optional<double> matched_s;
+  std::optional<double> first_keyframe_s;
+  // netns with capture: where the drone's bytes went, both directions.
+  std::optional<WireAccount> wire_account;
+  std::string capture_error;  // why there is no wire_account, when one was asked for
+  // Stored payload over the time the keyframe writer was busy (data or repairs on the link),
+  // as a fraction of the link's rate; 0 when not captured.
+  double goodput_fraction = 0;
 };
 
 struct ExperimentMission {

@@ -98,6 +98,11 @@ StationRecords read_station_records(const std::string& database_path);
 // anyway" log line, local time, millisecond resolution); nullopt when not found.
 std::optional<std::int64_t> stream_start_from_log(const std::string& agent_log_path);
 
+// The wall-clock time of the first line of a keyfleet log containing any of `needles` (any
+// line when empty); nullopt when none does.
+std::optional<std::int64_t> log_time_of(const std::string& log_path,
+                                        const std::vector<std::string>& needles);
+
 // Counts the agent's "not sent now" warnings (writes refused by a full capped writer).
 std::uint64_t count_refused_writes(const std::string& agent_log_path);
 

@@ -42,6 +42,8 @@ class NetnsLinks {
   std::vector<std::string> command_prefix(const std::string& process) const;
   std::string station_address(std::size_t drone) const;
   std::vector<std::string> drone_addresses() const;
+  // Drone i's end of its link (inside its namespace, reached with command_prefix(robot id)).
+  const std::string& drone_interface(std::size_t drone) const { return drone_if_.at(drone); }
   // The drone end's veth counters (tx = drone -> station); nullopt when unreadable.
   std::optional<WireBytes> counters(const std::string& robot_id) const;
   // One line per shaping step: what was applied and what was not (and why).
