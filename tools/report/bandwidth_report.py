@@ -79,7 +79,8 @@ def plot_savings(results, out):
            label="vs streaming every frame (est.)")
     ax.bar([i + 0.2 for i in x], [f["x_vslam"] for f in figures], 0.4,
            label="vs every V-SLAM keyframe")
-    ax.set_yscale("log")
+    if any(f["x_stream"] > 0 or f["x_vslam"] > 0 for f in figures):
+        ax.set_yscale("log")  # not with nothing delivered: a log axis needs a positive value
     ax.set_ylabel("baseline bytes / delivered bytes")
     ax.set_xticks(list(x))
     ax.set_xticklabels(names, rotation=60, ha="right", fontsize=7)
@@ -98,23 +99,27 @@ def plot_latency(results, out):
         ax = axes[0][col]
         missions = [m for m in results["missions"] if m["link"] == link]
         profiles = list(dict.fromkeys(m["profile"]["name"] for m in missions))
-        drones = sorted({m["drones"] for m in missions})
-        for k, n in enumerate(drones):
+        groups = sorted({(m["drones"], m.get("security", True)) for m in missions})
+        any_latency = False
+        for k, (n, secure) in enumerate(groups):
             xs, med, p95 = [], [], []
             for m in missions:
-                if m["drones"] != n:
+                if (m["drones"], m.get("security", True)) != (n, secure):
                     continue
                 f = fleet(m)
                 if f["lat_med"] is None:
                     continue
-                xs.append(profiles.index(m["profile"]["name"]) + (k - len(drones) / 2) * 0.12)
+                xs.append(profiles.index(m["profile"]["name"]) + (k - len(groups) / 2) * 0.12)
                 med.append(f["lat_med"] / 1e3)
                 p95.append(f["lat_p95"] / 1e3)
-            ax.scatter(xs, med, label=f"{n} drones: median", marker="o")
-            ax.scatter(xs, p95, marker="^", alpha=0.6, label=f"{n} drones: worst p95")
+                any_latency = any_latency or f["lat_med"] > 0
+            label = f"{n} drones" + ("" if secure else ", no security")
+            ax.scatter(xs, med, label=f"{label}: median", marker="o")
+            ax.scatter(xs, p95, marker="^", alpha=0.6, label=f"{label}: worst p95")
         ax.set_xticks(range(len(profiles)))
-        ax.set_xticklabels(profiles)
-        ax.set_yscale("log")
+        ax.set_xticklabels(profiles, rotation=45, ha="right", fontsize=7)
+        if any_latency:
+            ax.set_yscale("log")
         ax.set_ylabel("capture -> stored (s)")
         ax.set_title(f"Latency per profile ({link})")
         ax.grid(alpha=0.3)

@@ -222,8 +222,10 @@ void NetnsLinks::shape(const std::string& ns, const std::string& device) {
 }
 
 void NetnsLinks::drop_randomly(const std::string& ns, const std::string& device) {
-  // Without netem, loss is an nftables rule on the device's way out: each packet leaving it is
-  // dropped with the profile's probability, on both ends, so both directions lose as much.
+  // Without netem, loss is an nftables rule on the receiving end: each packet arriving on the
+  // device is dropped with the profile's probability, on both ends, so both directions lose as
+  // much. Dropped after it crossed the link, a lost packet has used the sender's rate, as a lost
+  // radio frame uses airtime, and a capture at the sender sees it sent.
   const long percent = std::lround(profile_.loss_percent);
   const std::vector<std::string> nft = {"ip", "netns", "exec", ns, "nft"};
   const auto with = [&](std::vector<std::string> args) {
@@ -231,13 +233,14 @@ void NetnsLinks::drop_randomly(const std::string& ns, const std::string& device)
     return args;
   };
   run_or_throw(with({"add", "table", "inet", "keyfleet_loss"}));
-  run_or_throw(with({"add", "chain", "inet", "keyfleet_loss", "out", "{", "type", "filter", "hook",
-                     "output", "priority", "0", ";", "policy", "accept", ";", "}"}));
-  run_or_throw(with({"add", "rule", "inet", "keyfleet_loss", "out", "oifname", device, "numgen",
+  run_or_throw(with({"add", "chain", "inet", "keyfleet_loss", "in", "{", "type", "filter", "hook",
+                     "prerouting", "priority", "0", ";", "policy", "accept", ";", "}"}));
+  run_or_throw(with({"add", "rule", "inet", "keyfleet_loss", "in", "iifname", device, "numgen",
                      "random", "mod", "100", "<", std::to_string(percent), "drop"}));
   if (!loss_noted_) {
-    notes_.push_back("loss " + std::to_string(percent) +
-                     " % by an nftables rule (numgen random) on both ends of every drone's veth");
+    notes_.push_back(
+        "loss " + std::to_string(percent) +
+        " % by an nftables rule (numgen random) on arrival at both ends of every drone's veth");
     loss_noted_ = true;
   }
 }
