@@ -229,6 +229,11 @@ radio_block() {
     echo "payload stored. Idle: bytes/s each way while the connected agent had nothing to send."
     echo
     "$python" "$root/tools/report/radio_table.py" "$out"
+    if [ -f "$out/radio.png" ]; then
+      cp "$out/radio.png" "$root/${page%.md}.png"
+      echo
+      echo "![goodput and latency]($(basename "${page%.md}.png"))"
+    fi
   } > "$root/$page"
   printf '*Measured %s on %s, `scripts/results.sh radio`: [%s](%s).*\n\n' "$when" "$machine" \
     "$page" "$page" | replace_block radio

@@ -129,6 +129,42 @@ def plot_latency(results, out):
     plt.close(fig)
 
 
+def plot_radio(results, out):
+    """Goodput and worst p95 latency against the link's rate, a line per loss and security."""
+    missions = [m for m in results["missions"]
+                if m["profile"]["rate_kbit_s"] and any(r.get("wire_split") for r in m["robots"])]
+    if not missions:
+        return False
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4))
+    keys = sorted({(m["drones"], m.get("security", True), m["profile"]["loss_percent"])
+                   for m in missions})
+    for drones, secure, loss in keys:
+        rows = sorted((m["profile"]["rate_kbit_s"], m) for m in missions
+                      if (m["drones"], m.get("security", True), m["profile"]["loss_percent"])
+                      == (drones, secure, loss))
+        rates = [rate for rate, _ in rows]
+        goodput = [statistics.median([r.get("goodput_fraction") or 0 for r in m["robots"]])
+                   for _, m in rows]
+        p95 = [(fleet(m)["lat_p95"] or float("nan")) / 1e3 for _, m in rows]
+        style = "-" if secure else "--"
+        label = f'{drones} drones, {loss:g} % loss{"" if secure else ", no security"}'
+        left.plot(rates, goodput, style, marker="o", label=label)
+        right.plot(rates, p95, style, marker="o", label=label)
+    left.set_ylabel("goodput (stored payload / busy time / link rate)")
+    right.set_ylabel("worst p95 latency (s)")
+    for ax in (left, right):
+        ax.set_xscale("log")
+        ax.set_xlabel("link rate per drone (kbit/s)")
+        ax.grid(alpha=0.3)
+    left.set_ylim(0, 1)
+    left.legend(fontsize=6)
+    fig.suptitle("Radio links: goodput and latency")
+    fig.tight_layout()
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+    return True
+
+
 def fmt(value, spec, missing="-"):
     return missing if value is None else format(value, spec)
 
@@ -182,6 +218,8 @@ def main():
         plot_latency(results, folder / "latency.png")
         pictures += [("Savings against both baselines", "savings.png"),
                      ("Latency per profile", "latency.png")]
+        if plot_radio(results, folder / "radio.png"):
+            pictures.append(("Radio links: goodput and latency", "radio.png"))
     write_report(results, folder, pictures)
 
 
