@@ -1,10 +1,10 @@
 #!/usr/bin/python3
 """Markdown tables of a `keyfleet experiment bandwidth` folder's radio-link figures.
 
-Reads DIR/results.json; prints, per mission, delivery, goodput, wire/payload, latency, the time
+Reads DIR/results.json (of each DIR given); prints, per mission, delivery, goodput, wire/payload, latency, the time
 to the station's match and to the first keyframe stored, idle chatter, and where the drones'
 bytes went (share of each category, drone -> station). Medians over the mission's robots, the
-worst robot's p95. Usage: /usr/bin/python3 tools/report/radio_table.py DIR
+worst robot's p95. Usage: /usr/bin/python3 tools/report/radio_table.py DIR...
 """
 import json
 import statistics
@@ -63,8 +63,11 @@ def split_row(m):
     return cells
 
 
-def main(folder):
-    results = json.loads((Path(folder) / "results.json").read_text())
+def main(folders):
+    # Several folders (runs of parts of a matrix) make one table, in the order given.
+    results = {"missions": []}
+    for folder in folders:
+        results["missions"] += json.loads((Path(folder) / "results.json").read_text())["missions"]
     out = ["| drones | security | kbit/s | loss % | delivered | lost | goodput | wire/payload "
            "| latency p50 s | p95 s | matched s | 1st keyframe s | idle B/s tx / rx |",
            "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
@@ -81,4 +84,6 @@ def main(folder):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1])
+    if len(sys.argv) < 2:
+        sys.exit("usage: radio_table.py EXPERIMENT_FOLDER...")
+    main(sys.argv[1:])

@@ -91,8 +91,10 @@ ExperimentResult BandwidthExperiment::run(const StopToken& stop) {
     }
     links.push_back(link);
   }
+  std::vector<std::string> security_modes = config_.security;
+  if (security_modes.empty()) security_modes = {config_.mission.security ? "on" : "off"};
   for (const auto& link : links)
-    for (const auto& security : config_.security)
+    for (const auto& security : security_modes)
       for (int drones : config_.drones)
         for (const auto& profile : config_.profiles) {
           if (stop.requested()) {

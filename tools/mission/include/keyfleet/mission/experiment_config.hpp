@@ -33,8 +33,9 @@ struct BandwidthExperimentConfig {
   // the profile's rate; MTU, pacing and discovery periods from mission.agent.dds.link and
   // mission.station.dds.link). false: only the older cap above, in 10 ms periods.
   bool dds_link = true;
-  // Each mission with DDS-Security ("on"), without ("off"), or both, in this order.
-  std::vector<std::string> security = {"on"};
+  // Each mission with DDS-Security ("on"), without ("off"), or both, in this order; empty: as
+  // mission.security says.
+  std::vector<std::string> security;
   // Sizing each mission's drain to its link: the keyframe bytes a drone is expected to offer per
   // second of flight. The agents' drain_timeout_s becomes at least the flight's offered bytes
   // over the link's rate plus drain_margin_s, so "delivered" measures the transport.
