@@ -227,6 +227,8 @@ radio_block() {
     echo "offers is never backlogged, so its goodput is the offered load). wire/payload: the"
     echo "drone's bytes on its link, headers, control, discovery and security included, over the"
     echo "payload stored. Idle: bytes/s each way while the connected agent had nothing to send."
+    echo "Undelivered: keyframes still in the robots' outboxes (kept on disk) or given up when the"
+    echo "drain, sized to the link, ended."
     echo
     "$python" "$root/tools/report/radio_table.py" "$out"
     if [ -f "$out/radio.png" ]; then

@@ -68,7 +68,7 @@ def main(folders):
     results = {"missions": []}
     for folder in folders:
         results["missions"] += json.loads((Path(folder) / "results.json").read_text())["missions"]
-    out = ["| drones | security | kbit/s | loss % | delivered | lost | goodput | wire/payload "
+    out = ["| drones | security | kbit/s | loss % | delivered | undelivered | goodput | wire/payload "
            "| latency p50 s | p95 s | matched s | 1st keyframe s | idle B/s tx / rx |",
            "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for m in results["missions"]:

@@ -298,9 +298,10 @@ void BandwidthExperiment::size_drain(MissionConfig& mission,
   if (profile.rate_kbit_s <= 0 || source.max_frames == 0) return;
   const double flight_s = static_cast<double>(source.max_frames) / source.fps;
   const double offered = config_.offered_bytes_per_s * flight_s;
-  // What the flight offers beyond what the link carries during it, at the rate left after
-  // the headers (about 0.8 of it), plus the margin.
-  const double link_bytes_per_s = profile.rate_kbit_s * 1000.0 / 8.0 * 0.8;
+  // What the flight offers beyond what the link carries during it, plus the margin. The link
+  // carries about 0.7 of its rate in keyframe payload (pacing and headers), less what is lost.
+  const double link_bytes_per_s =
+      profile.rate_kbit_s * 1000.0 / 8.0 * 0.7 * std::max(0.05, 1.0 - profile.loss_percent / 100);
   const double drain =
       std::max(0.0, offered / link_bytes_per_s - flight_s) + config_.drain_margin_s;
   mission.agent.drain_timeout_s = std::max(mission.agent.drain_timeout_s, drain);

@@ -136,8 +136,8 @@ std::string experiment_table(const ExperimentResult& result) {
   std::string table;
   char line[512];
   std::snprintf(line, sizeof line,
-                "%-28s %4s %9s %5s %9s %8s %7s %7s %9s %10s %10s %8s %8s %8s %7s %7s %9s\n",
-                "mission", "ok", "delivered", "lost", "lat.med", "lat.p95", "dropped", "resent",
+                "%-28s %4s %9s %7s %9s %8s %7s %7s %9s %10s %10s %8s %8s %8s %7s %7s %9s\n",
+                "mission", "ok", "delivered", "undeliv", "lat.med", "lat.p95", "dropped", "resent",
                 "payload", "wire", "kB/s/robot", "x stream", "x vslam", "goodput", "wire/pl",
                 "1st kf", "idle B/s");
   table += line;
@@ -146,7 +146,7 @@ std::string experiment_table(const ExperimentResult& result) {
                   vslam = 0;
     bool wire_measured = !m.robots.empty();
     std::vector<double> medians, p95s, rates, goodputs, ratios, firsts, idles;
-    std::uint64_t lost = 0;
+    std::uint64_t undelivered = 0;
     for (const auto& r : m.robots) {
       const RobotMetrics& x = r.metrics;
       delivered += x.delivered;
@@ -164,7 +164,7 @@ std::string experiment_table(const ExperimentResult& result) {
         p95s.push_back(x.latency_p95_ms);
       }
       rates.push_back(x.throughput_bytes_per_s / 1e3);
-      lost += r.pending + x.dropped;
+      undelivered += r.pending + x.dropped;
       if (r.first_keyframe_s) firsts.push_back(*r.first_keyframe_s);
       if (r.wire_account) {
         goodputs.push_back(r.goodput_fraction);
@@ -184,10 +184,10 @@ std::string experiment_table(const ExperimentResult& result) {
     const double p95 = p95s.empty() ? 0 : *std::max_element(p95s.begin(), p95s.end());
     std::snprintf(
         line, sizeof line,
-        "%-28s %4s %9llu %5llu %7.0fms %6.0fms %7llu %7llu %7sMB %8s%s %10.1f %7.1fx %7.1fx %8s "
+        "%-28s %4s %9llu %7llu %7.0fms %6.0fms %7llu %7llu %7sMB %8s%s %10.1f %7.1fx %7.1fx %8s "
         "%7s %7s %9s\n",
         m.name.c_str(), m.ok ? "yes" : "NO", static_cast<unsigned long long>(delivered),
-        static_cast<unsigned long long>(lost), median(medians), p95,
+        static_cast<unsigned long long>(undelivered), median(medians), p95,
         static_cast<unsigned long long>(dropped), static_cast<unsigned long long>(resent),
         megabytes(payload).c_str(), wire_measured ? megabytes(wire).c_str() : "not meas.",
         wire_measured ? "MB" : "", median(rates), saving_ratio(stream, payload),
