@@ -73,8 +73,15 @@ TEST_F(FleetCredentials, PermissionsLetEachRobotPublishAsItselfOnly) {
 TEST_F(FleetCredentials, GovernanceAdmitsNoStrangerAndEncrypts) {
   const std::string governance = verify(security_files(dir(), "station").governance);
   EXPECT_NE(governance.find("<allow_unauthenticated_participants>false"), std::string::npos);
-  EXPECT_NE(governance.find("<discovery_protection_kind>ENCRYPT"), std::string::npos);
+  EXPECT_NE(governance.find("<enable_join_access_control>true"), std::string::npos);
+  EXPECT_NE(governance.find("<enable_read_access_control>true"), std::string::npos);
+  EXPECT_NE(governance.find("<enable_write_access_control>true"), std::string::npos);
   EXPECT_NE(governance.find("<data_protection_kind>ENCRYPT"), std::string::npos);
+  // The protections the DDS adapter sizes its messages for (governance.hpp), as measured on
+  // radio links: no per-submessage signing, no encrypted discovery (docs/radio_links.md).
+  EXPECT_NE(governance.find("<metadata_protection_kind>NONE"), std::string::npos);
+  EXPECT_NE(governance.find("<discovery_protection_kind>NONE"), std::string::npos);
+  EXPECT_NE(governance.find("<rtps_protection_kind>NONE"), std::string::npos);
 }
 
 TEST_F(FleetCredentials, ADocumentChangedAfterSigningFailsToVerify) {
