@@ -186,6 +186,7 @@ void visit(V& v, DdsLinkProfile& c) {
   v.field("pacing", c.pacing, between(0.1, 1.0));
   v.field("announcement_period_s", c.announcement_period_s, positive());
   v.field("lease_duration_s", c.lease_duration_s, positive());
+  v.field("rejoin_after_s", c.rejoin_after_s, between(0.0, 86400.0));
 }
 
 template <class V>

@@ -34,6 +34,9 @@ struct DdsLinkProfile {
   double pacing = 0.9;
   double announcement_period_s = 5.0;  // participant announcements on the link
   double lease_duration_s = 20.0;      // a peer silent this long is dropped
+  // A robot without a station this long joins again as a new participant (0 = never): over a
+  // lossy link Fast DDS 2.9.1 can leave a DDS-Security handshake half done for good.
+  double rejoin_after_s = 60.0;
 };
 
 struct DdsSettings {
