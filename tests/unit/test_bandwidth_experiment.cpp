@@ -165,15 +165,17 @@ mission:
   EXPECT_DOUBLE_EQ(again.profiles[1].rate_kbit_s, 500);
 }
 
+// The error a config text gives, or "no error".
+std::string error_of(const std::string& yaml) {
+  try {
+    parse_bandwidth_experiment_config(yaml, "bad.yaml");
+  } catch (const ConfigError& e) {
+    return std::string(e.what());
+  }
+  return std::string("no error");
+}
+
 TEST(ExperimentConfig, BadProfileKeysAndLinkKindsNameTheKey) {
-  const auto error_of = [](const std::string& yaml) {
-    try {
-      parse_bandwidth_experiment_config(yaml, "bad.yaml");
-    } catch (const ConfigError& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
-  };
   EXPECT_NE(error_of("profiles:\n  - name: a\n    rate: 5\n").find("profiles.rate: unknown key"),
             std::string::npos)
       << error_of("profiles:\n  - name: a\n    rate: 5\n");
@@ -218,14 +220,6 @@ mission:
 }
 
 TEST(ExperimentConfig, BadRadioValuesNameTheKey) {
-  const auto error_of = [](const std::string& yaml) {
-    try {
-      parse_bandwidth_experiment_config(yaml, "bad.yaml");
-    } catch (const ConfigError& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
-  };
   EXPECT_NE(error_of("security: [maybe]\n").find("security"), std::string::npos);
   EXPECT_NE(error_of("mission: {agent: {dds: {link: {mtu_bytes: 100}}}}\n").find("mtu_bytes"),
             std::string::npos);
