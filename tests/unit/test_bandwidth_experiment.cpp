@@ -8,6 +8,7 @@
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/config_error.hpp"
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/mission/bandwidth_experiment.hpp"
 #include "keyfleet/mission/bandwidth_metrics.hpp"
 #include "keyfleet/mission/experiment_config.hpp"
 
@@ -228,6 +229,39 @@ TEST(ExperimentConfig, BadRadioValuesNameTheKey) {
   EXPECT_NE(error_of("mission: {agent: {dds: {link: {rate: 5}}}}\n").find("link.rate: unknown key"),
             std::string::npos)
       << error_of("mission: {agent: {dds: {link: {rate: 5}}}}\n");
+}
+
+TEST(DrainSizing, CoversWhatTheFlightOffersOverTheLinkLessItsLoss) {
+  BandwidthExperimentConfig config;
+  config.offered_bytes_per_s = 60000;
+  config.drain_margin_s = 30;
+  config.idle_window_s = 10;
+  MissionConfig mission;
+  mission.agent.source.max_frames = 200;
+  mission.agent.source.fps = 10;  // 20 s: 1.2 MB offered
+  mission.agent.drain_timeout_s = 60;
+  mission.agent.wait_for_station_s = 60;
+  mission.agent_timeout_s = 150;
+  LinkProfileConfig link;
+  link.rate_kbit_s = 100;  // 12,500 B/s, 0.7 of it payload: 8,750 B/s
+  MissionConfig clean = mission;
+  size_drain(clean, link, config);
+  EXPECT_NEAR(clean.agent.drain_timeout_s, 1.2e6 / 8750 - 20 + 30, 1e-9);
+  EXPECT_NEAR(clean.agent_timeout_s, 60 + 30 + clean.agent.drain_timeout_s + 10 + 30, 1e-9);
+  link.loss_percent = 20;  // a fifth less delivered
+  MissionConfig lossy = mission;
+  size_drain(lossy, link, config);
+  EXPECT_NEAR(lossy.agent.drain_timeout_s, 1.2e6 / 7000 - 20 + 30, 1e-9);
+  link.rate_kbit_s = 10000;  // the link outruns the flight: the configured drain stays
+  MissionConfig fast = mission;
+  size_drain(fast, link, config);
+  EXPECT_DOUBLE_EQ(fast.agent.drain_timeout_s, 60);
+  EXPECT_DOUBLE_EQ(fast.agent_timeout_s, 60 + 30 + 60 + 10 + 30);
+  link.rate_kbit_s = 0;  // no rate: nothing to size
+  MissionConfig unlimited = mission;
+  size_drain(unlimited, link, config);
+  EXPECT_DOUBLE_EQ(unlimited.agent.drain_timeout_s, 60);
+  EXPECT_DOUBLE_EQ(unlimited.agent_timeout_s, 150);
 }
 
 TEST(LogTime, FindsTheFirstLineWithANeedleOrTheFirstLine) {

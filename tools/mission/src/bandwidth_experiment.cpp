@@ -137,7 +137,7 @@ ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const
   mission.name = out.name;
   mission.drones = drones;
   mission.security = security;
-  size_drain(mission, profile);
+  size_drain(mission, profile, config_);
   mission.run_root = (fs::path(dir) / "missions").string();
   std::vector<std::string> robot_ids;
   for (int i = 0; i < drones; ++i) robot_ids.push_back(mission.robot_id_prefix + std::to_string(i));
@@ -292,22 +292,21 @@ ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const
   return out;
 }
 
-void BandwidthExperiment::size_drain(MissionConfig& mission,
-                                     const LinkProfileConfig& profile) const {
+void size_drain(MissionConfig& mission, const LinkProfileConfig& profile,
+                const BandwidthExperimentConfig& config) {
   const auto& source = mission.agent.source;
   if (profile.rate_kbit_s <= 0 || source.max_frames == 0) return;
   const double flight_s = static_cast<double>(source.max_frames) / source.fps;
-  const double offered = config_.offered_bytes_per_s * flight_s;
+  const double offered = config.offered_bytes_per_s * flight_s;
   // What the flight offers beyond what the link carries during it, plus the margin. The link
   // carries about 0.7 of its rate in keyframe payload (pacing and headers), less what is lost.
   const double link_bytes_per_s =
       profile.rate_kbit_s * 1000.0 / 8.0 * 0.7 * std::max(0.05, 1.0 - profile.loss_percent / 100);
-  const double drain =
-      std::max(0.0, offered / link_bytes_per_s - flight_s) + config_.drain_margin_s;
+  const double drain = std::max(0.0, offered / link_bytes_per_s - flight_s) + config.drain_margin_s;
   mission.agent.drain_timeout_s = std::max(mission.agent.drain_timeout_s, drain);
   const double needed = mission.agent.wait_for_station_s + flight_s * 1.5 +
                         mission.agent.drain_timeout_s + mission.agent.linger_s +
-                        config_.idle_window_s + 30.0;
+                        config.idle_window_s + 30.0;
   mission.agent_timeout_s = std::max(mission.agent_timeout_s, needed);
 }
 

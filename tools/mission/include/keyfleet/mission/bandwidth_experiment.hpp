@@ -71,15 +71,17 @@ class BandwidthExperiment {
                                 int drones, const LinkProfileConfig& profile,
                                 const StopToken& stop);
 
-  // Raises the agents' drain_timeout_s (and the mission's agent timeout) to what the flight
-  // offers over the profile's rate, so that a slow link is not cut short by a fixed timeout.
-  void size_drain(MissionConfig& mission, const LinkProfileConfig& profile) const;
-
   BandwidthExperimentConfig config_;
   MissionBinaries binaries_;
   Logger logger_;
   std::ostream& progress_;
 };
+
+// Raises the agents' drain_timeout_s (and the mission's agent timeout) to what the flight offers
+// (config.offered_bytes_per_s) beyond what the profile's link carries meanwhile, plus
+// config.drain_margin_s, so that a slow or lossy link is not cut short by a fixed timeout.
+void size_drain(MissionConfig& mission, const LinkProfileConfig& profile,
+                const BandwidthExperimentConfig& config);
 
 // results.json / results.csv of an experiment (also read by the plotting script).
 void write_experiment_json(const ExperimentResult& result, const BandwidthExperimentConfig& config,
