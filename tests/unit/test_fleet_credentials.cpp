@@ -70,6 +70,22 @@ TEST_F(FleetCredentials, PermissionsLetEachRobotPublishAsItselfOnly) {
             std::string::npos);
 }
 
+TEST_F(FleetCredentials, IdentitiesAreVersion3EndEntitiesThatOnlySign) {
+  for (const std::string id : {"drone_0", "station"}) {
+    SCOPED_TRACE(id);
+    const auto [code, text] =
+        shell("openssl x509 -noout -text -in " + security_files(dir(), id).certificate);
+    ASSERT_EQ(code, 0) << text;
+    EXPECT_NE(text.find("Version: 3"), std::string::npos) << text;
+    EXPECT_NE(text.find("X509v3 Basic Constraints: critical"), std::string::npos) << text;
+    EXPECT_NE(text.find("CA:FALSE"), std::string::npos) << text;
+    EXPECT_NE(text.find("X509v3 Key Usage: critical"), std::string::npos) << text;
+    EXPECT_NE(text.find("Digital Signature"), std::string::npos) << text;
+    EXPECT_EQ(text.find("Certificate Sign"), std::string::npos)
+        << "an identity must not sign certificates";
+  }
+}
+
 TEST_F(FleetCredentials, GovernanceAdmitsNoStrangerAndEncrypts) {
   const std::string governance = verify(security_files(dir(), "station").governance);
   EXPECT_NE(governance.find("<allow_unauthenticated_participants>false"), std::string::npos);

@@ -172,6 +172,15 @@ void write_fleet_credentials(const FleetCredentialsRequest& request, Logger logg
 
   std::vector<std::string> identities = request.robot_ids;
   identities.push_back(kStationIdentity);
+  // X.509 v3 identities: an end entity (not a CA) whose key only signs (the PKI-DH handshake's
+  // signatures; the key agreement uses ephemeral keys).
+  const fs::path extensions = dir / "identity_extensions.cnf";
+  write_file(extensions,
+             "[identity]\n"
+             "basicConstraints = critical, CA:FALSE\n"
+             "keyUsage = critical, digitalSignature\n"
+             "subjectKeyIdentifier = hash\n"
+             "authorityKeyIdentifier = keyid\n");
   int serial = 1;
   for (const auto& id : identities) {
     const SecurityFiles files = security_files(dir.string(), id);
@@ -180,9 +189,10 @@ void write_fleet_credentials(const FleetCredentialsRequest& request, Logger logg
         "make the key of " + id,
         {"req", "-new", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes",
          "-sha256", "-subj", "/CN=" + id, "-keyout", files.private_key, "-out", request_path});
-    openssl.run("certify " + id, {"x509", "-req", "-sha256", "-days", days, "-in", request_path,
-                                  "-CA", ca_files.ca, "-CAkey", ca_key, "-set_serial",
-                                  std::to_string(++serial), "-out", files.certificate});
+    openssl.run("certify " + id,
+                {"x509", "-req", "-sha256", "-days", days, "-in", request_path, "-CA", ca_files.ca,
+                 "-CAkey", ca_key, "-set_serial", std::to_string(++serial), "-extfile",
+                 extensions.string(), "-extensions", "identity", "-out", files.certificate});
     fs::remove(request_path, ec);
     const fs::path xml = dir / "identities" / (id + ".permissions.xml");
     write_file(xml, permissions_xml(id, id == kStationIdentity, not_before, not_after));
