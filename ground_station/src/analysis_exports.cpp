@@ -9,15 +9,16 @@
 #include "keyfleet/common/file_output.hpp"
 
 namespace keyfleet::station {
-namespace {
 
-std::string csv_text(const std::string& text) {
+std::string csv_cell(const std::string& text) {
   std::string quoted = "\"";
+  // A cell a spreadsheet would take for a formula (a painted sign can read "=HYPERLINK(...)")
+  // is kept as text by a leading apostrophe, as OWASP recommends for CSV exports.
+  if (!text.empty() && std::string("=+-@\t\r").find(text.front()) != std::string::npos)
+    quoted += '\'';
   for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
   return quoted + "\"";
 }
-
-}  // namespace
 
 std::string write_analysis_exports(const AnalysisStore& store, const TopoMap& map,
                                    const StationAnalysis::Summary& summary,
@@ -29,7 +30,9 @@ std::string write_analysis_exports(const AnalysisStore& store, const TopoMap& ma
     map.write_graphml(out);
     write_file(dir / "map.graphml", out.str());
   }
-  write_file(dir / "map.json", map.to_json().dump(1) + "\n");
+  // Words are what a reader made of a picture: not always UTF-8, which JSON needs.
+  write_file(dir / "map.json",
+             map.to_json().dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
 
   const std::vector<StoredWord> words = store.words();
   std::set<std::string> distinct;
@@ -38,7 +41,7 @@ std::string write_analysis_exports(const AnalysisStore& store, const TopoMap& ma
     out << "robot_id,sequence_number,capture_time_ns,text,confidence,x,y,width,height\n";
     for (const StoredWord& w : words) {
       out << w.keyframe.robot_id << ',' << w.keyframe.sequence << ',' << w.capture_time_ns << ','
-          << csv_text(w.text) << ',' << w.confidence << ',' << w.box.x << ',' << w.box.y << ','
+          << csv_cell(w.text) << ',' << w.confidence << ',' << w.box.x << ',' << w.box.y << ','
           << w.box.width << ',' << w.box.height << '\n';
       std::string upper;
       for (char c : w.text) upper += static_cast<char>(std::toupper(static_cast<unsigned char>(c)));

@@ -143,6 +143,19 @@ TEST_F(DashboardTest, WordSearchFindsTheKeyframeAndRefusesBadSyntax) {
             std::string::npos);
 }
 
+TEST_F(DashboardTest, WordsThatAreNotUtf8AreServedReplacedAndSuchQueriesRefused) {
+  // A reader's output from a hostile picture: a cut sequence and bytes that are never UTF-8.
+  analysis_.save(words_of("drone_0", 3, {"CAF\xC3", "\xFF\xFEX"}));
+  auto server = serve();
+  httplib::Client client("127.0.0.1", server->port());
+  const json keyframes = get_json(client, "/api/keyframes?robot=drone_0");
+  EXPECT_NE(keyframes.dump().find("CAF\xEF\xBF\xBD"), std::string::npos) << keyframes.dump();
+  EXPECT_NE(keyframes.dump().find("\xEF\xBF\xBD\xEF\xBF\xBDX"), std::string::npos);
+  EXPECT_EQ(get_json(client, "/api/map")["nodes"].size(), 4u);
+  EXPECT_NE(get_json(client, "/api/search?q=%FF", 400)["error"].get<std::string>().find("UTF-8"),
+            std::string::npos);
+}
+
 TEST_F(DashboardTest, MapAndBandwidthComeAsJsonAndSvg) {
   auto server = serve();
   httplib::Client client("127.0.0.1", server->port());

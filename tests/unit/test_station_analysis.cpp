@@ -14,6 +14,7 @@
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/sqlite.hpp"
 #include "keyfleet/station/analysis_attempts.hpp"
+#include "keyfleet/station/analysis_exports.hpp"
 #include "keyfleet/station/analysis_pool.hpp"
 #include "keyfleet/station/analysis_store.hpp"
 #include "keyfleet/station/keyframe_analyzer.hpp"
@@ -66,6 +67,15 @@ class Gate {
   int entered_ = 0;
   bool open_ = false;
 };
+
+TEST(AnalysisExports, CsvCellsQuoteAndNeutraliseWhatASpreadsheetWouldEvaluate) {
+  EXPECT_EQ(csv_cell("HOTEL"), "\"HOTEL\"");
+  EXPECT_EQ(csv_cell("SAY \"HI\""), "\"SAY \"\"HI\"\"\"");
+  for (const std::string formula : {"=HYPERLINK(\"x\")", "+1", "-1+2", "@SUM(A1)", "\tX", "\rX"})
+    EXPECT_EQ(csv_cell(formula).substr(0, 2), "\"'") << formula;
+  EXPECT_EQ(csv_cell("A=B"), "\"A=B\"") << "only a leading sign makes a formula";
+  EXPECT_EQ(csv_cell(""), "\"\"");
+}
 
 TEST(AnalysisPool, DefersTheOldestWaitingJobsWhenFullAndLosesNone) {
   Gate gate;
@@ -297,7 +307,7 @@ TEST_F(AnalysisStoreTest, StationAnalysisFeedsTheMapAndARestartRestoresIt) {
   EXPECT_EQ(map.edge_count(EdgeKind::kTemporal), 1u);
   EXPECT_EQ(map.cross_robot_match_count(), 1u);
   EXPECT_EQ(map.nodes_with_word("hotel").size(), 3u);
-  EXPECT_EQ(restarted_places.size(), 3u);  // the ORB features stored by the first run
+  EXPECT_EQ(restarted_places.size(), 3u);       // the ORB features stored by the first run
   EXPECT_EQ(restarted_places.described(), 3u);  // and the place descriptors
 }
 

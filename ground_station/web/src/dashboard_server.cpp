@@ -52,8 +52,23 @@ std::size_t size_param(const httplib::Request& req, const char* name, std::size_
   }
 }
 
+// Words are what a reader made of a picture and queries what a client sent: not always UTF-8,
+// which JSON needs. Each invalid byte is sent as U+FFFD instead of failing the request.
+std::string json_text(const nlohmann::json& doc) {
+  return doc.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+bool is_utf8(const std::string& text) {
+  try {
+    (void)nlohmann::json(text).dump();
+    return true;
+  } catch (const nlohmann::json::type_error&) {
+    return false;
+  }
+}
+
 void send_json(httplib::Response& res, const nlohmann::json& doc) {
-  res.set_content(doc.dump(), "application/json");
+  res.set_content(json_text(doc), "application/json");
 }
 
 void send_error(httplib::Response& res, int status, const std::string& message) {
@@ -140,7 +155,7 @@ void DashboardServer::publish_summary() {
   std::string summary;
   {
     std::lock_guard<std::mutex> lock(view_mutex_);
-    summary = view_->summary(live).dump();
+    summary = json_text(view_->summary(live));
   }
   events_.publish(std::move(summary));
 }
@@ -200,6 +215,7 @@ void DashboardServer::add_routes() {
   s.Get("/api/search", guarded([this](const httplib::Request& req, httplib::Response& res) {
           const std::string query = req.get_param_value("q");
           if (query.empty()) return send_error(res, 400, "q=WORD is required");
+          if (!is_utf8(query)) return send_error(res, 400, "q= is not UTF-8 text");
           std::vector<StoredWord> words;
           try {
             words = view_->search(query, size_param(req, "limit", 50, 500));
