@@ -156,6 +156,30 @@ TEST_F(DashboardTest, WordsThatAreNotUtf8AreServedReplacedAndSuchQueriesRefused)
             std::string::npos);
 }
 
+TEST_F(DashboardTest, EveryAnswerCarriesTheBrowserProtections) {
+  DashboardConfig config;
+  config.token = "correct-horse-battery";
+  auto server = serve(config);
+  httplib::Client client("127.0.0.1", server->port());
+  for (const std::string path :
+       {"/?token=correct-horse-battery", "/api/map?token=correct-horse-battery",
+        "/api/image?robot=nobody&sequence=1&token=correct-horse-battery", "/api/map?token=wrong"}) {
+    SCOPED_TRACE(path);
+    const auto res = client.Get(path.c_str());
+    ASSERT_TRUE(res);
+    const std::string csp = res->get_header_value("Content-Security-Policy");
+    EXPECT_NE(csp.find("frame-ancestors 'none'"), std::string::npos) << csp;
+    EXPECT_NE(csp.find("script-src 'self'"), std::string::npos) << csp;
+    EXPECT_EQ(res->get_header_value("X-Content-Type-Options"), "nosniff");
+    EXPECT_EQ(res->get_header_value("Referrer-Policy"), "no-referrer");
+  }
+  // The token is compared whole: a prefix, a longer string or another of the same length fail.
+  EXPECT_EQ(client.Get("/api/map?token=correct-horse")->status, 401);
+  EXPECT_EQ(client.Get("/api/map?token=correct-horse-battery-x")->status, 401);
+  EXPECT_EQ(client.Get("/api/map?token=correct-horse-batterz")->status, 401);
+  EXPECT_EQ(client.Get("/api/map?token=correct-horse-battery")->status, 200);
+}
+
 TEST_F(DashboardTest, MapAndBandwidthComeAsJsonAndSvg) {
   auto server = serve();
   httplib::Client client("127.0.0.1", server->port());
