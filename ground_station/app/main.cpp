@@ -31,7 +31,12 @@ int run(const ProcessOptions& options) {
 
   Logger logger = make_logger("station", config.log_level, options.log_file);
   route_fastdds_log(logger);
-  logger->info("effective configuration:\n{}", to_yaml(config));
+  {
+    // The dashboard's token is a secret: only the printed URL and dashboard.url carry it.
+    StationConfig shown = config;
+    if (!shown.dashboard.token.empty()) shown.dashboard.token = "(set, not shown)";
+    logger->info("effective configuration:\n{}", to_yaml(shown));
+  }
 
   ShutdownSignal shutdown;
   DiskReserve report_space(fs::path(options.run_dir) / "report.reserve",
@@ -75,7 +80,13 @@ int run(const ProcessOptions& options) {
         config.dashboard, store.path(), [&pool] { return std::optional(pool.counters()); }, logger);
     // Written whole, then renamed: `keyfleet mission` reads it while the station runs.
     write_file(url_file, dashboard->url() + "\n");
-    logger->info("dashboard at {}", dashboard->url());
+    std::error_code mode_error;  // the URL may hold the token: the owner's alone
+    fs::permissions(url_file, fs::perms::owner_read | fs::perms::owner_write,
+                    fs::perm_options::replace, mode_error);
+    if (mode_error)
+      logger->warn("cannot make {} private: {}", url_file.string(), mode_error.message());
+    logger->info("dashboard at {}{}", dashboard->url().substr(0, dashboard->url().find('?')),
+                 config.dashboard.token.empty() ? "" : " (with its token: see dashboard.url)");
   }
   station.on_stored([&analysis, &dashboard](const Keyframe& k) {
     analysis.on_stored(k);

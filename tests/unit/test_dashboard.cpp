@@ -173,6 +173,14 @@ TEST_F(DashboardTest, EveryAnswerCarriesTheBrowserProtections) {
     EXPECT_EQ(res->get_header_value("X-Content-Type-Options"), "nosniff");
     EXPECT_EQ(res->get_header_value("Referrer-Policy"), "no-referrer");
   }
+  // A token that is not URL-safe is percent-encoded in the URL the station prints.
+  DashboardConfig odd;
+  odd.token = "a b&c=d/e";
+  auto odd_server = serve(odd);
+  EXPECT_NE(odd_server->url().find("?token=a%20b%26c%3Dd%2Fe"), std::string::npos)
+      << odd_server->url();
+  httplib::Client odd_client("127.0.0.1", odd_server->port());
+  EXPECT_EQ(odd_client.Get("/api/map?token=a%20b%26c%3Dd%2Fe")->status, 200);
   // The token is compared whole: a prefix, a longer string or another of the same length fail.
   EXPECT_EQ(client.Get("/api/map?token=correct-horse")->status, 401);
   EXPECT_EQ(client.Get("/api/map?token=correct-horse-battery-x")->status, 401);

@@ -58,6 +58,23 @@ std::string json_text(const nlohmann::json& doc) {
   return doc.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
+// RFC 3986: everything but the unreserved characters as %XX, so any token survives a URL.
+std::string percent_encoded(const std::string& text) {
+  static const char* kHex = "0123456789ABCDEF";
+  std::string out;
+  for (const char c : text) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (std::isalnum(byte) || c == '-' || c == '.' || c == '_' || c == '~') {
+      out += c;
+    } else {
+      out += '%';
+      out += kHex[byte >> 4];
+      out += kHex[byte & 0x0F];
+    }
+  }
+  return out;
+}
+
 // Compares in time that depends on the lengths only, not on where the first difference is.
 bool same_secret(const std::string& given, const std::string& secret) {
   unsigned char differ = given.size() == secret.size() ? 0 : 1;
@@ -117,7 +134,7 @@ DashboardServer::~DashboardServer() { stop(); }
 std::string DashboardServer::url() const {
   const std::string host = config_.address == "0.0.0.0" ? "127.0.0.1" : config_.address;
   return "http://" + host + ":" + std::to_string(port_) + "/" +
-         (config_.token.empty() ? "" : "?token=" + config_.token);
+         (config_.token.empty() ? "" : "?token=" + percent_encoded(config_.token));
 }
 
 void DashboardServer::poke() {
