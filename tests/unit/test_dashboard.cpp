@@ -181,6 +181,21 @@ TEST_F(DashboardTest, EveryAnswerCarriesTheBrowserProtections) {
       << odd_server->url();
   httplib::Client odd_client("127.0.0.1", odd_server->port());
   EXPECT_EQ(odd_client.Get("/api/map?token=a%20b%26c%3Dd%2Fe")->status, 200);
+  // No request body is read, whatever its size: with the token the answer is 413, without it
+  // 401 (the token is checked before any body would be), or the connection is closed while
+  // the client is still sending.
+  const std::string body(1 << 20, 'x');
+  for (const auto& [path, refusal] :
+       {std::pair<std::string, int>{"/api/map?token=correct-horse-battery", 413},
+        std::pair<std::string, int>{"/api/map", 401}}) {
+    httplib::Client poster("127.0.0.1", server->port());
+    const auto posted = poster.Post(path.c_str(), body, "application/octet-stream");
+    if (posted) {
+      EXPECT_TRUE(posted->status == refusal || posted->status == 413)
+          << path << ": " << posted->status;
+    }
+  }
+  EXPECT_EQ(client.Get("/api/map?token=correct-horse-battery")->status, 200) << "still serving";
   // The token is compared whole: a prefix, a longer string or another of the same length fail.
   EXPECT_EQ(client.Get("/api/map?token=correct-horse")->status, 401);
   EXPECT_EQ(client.Get("/api/map?token=correct-horse-battery-x")->status, 401);

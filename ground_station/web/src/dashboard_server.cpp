@@ -118,6 +118,8 @@ DashboardServer::DashboardServer(const DashboardConfig& config, const std::strin
   const int threads = config_.threads;
   server_->new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
   server_->set_keep_alive_timeout(1);
+  // The dashboard only answers GETs: a request body of any size is refused (413) unread.
+  server_->set_payload_max_length(0);
   add_routes();
   port_ = config_.port == 0
               ? server_->bind_to_any_port(config_.address)
