@@ -9,6 +9,7 @@
 #include "keyfleet/common/clock.hpp"
 #include "keyfleet/common/file_output.hpp"
 #include "keyfleet/common/process_tuning.hpp"
+#include "keyfleet/common/run_folder_lock.hpp"
 #include "keyfleet/common/shutdown_signal.hpp"
 #include "keyfleet/dds/dds_transport.hpp"
 #include "keyfleet/station/analysis_exports.hpp"
@@ -28,6 +29,7 @@ int run(const ProcessOptions& options) {
   StationConfig config = load_station_config(options.config_path);
   apply_dds_overrides(options, config.dds);
   fs::create_directories(options.run_dir);
+  const RunFolderLock run_folder(options.run_dir, "station.lock");
 
   Logger logger = make_logger("station", config.log_level, options.log_file);
   route_fastdds_log(logger);

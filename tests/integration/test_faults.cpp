@@ -254,5 +254,28 @@ TEST_F(Faults, AFullDiskLosesNothingAcknowledgedAndTheReportIsWritten) {
             << " kept by the agent, all 40 stored once the disk had room\n";
 }
 
+// Two stations on one run folder would interleave one database, mission log and reports: the
+// second refuses to start, naming the folder and the first's pid; the first goes on.
+TEST_F(Faults, ASecondStationOnTheSameRunFolderIsRefused) {
+  auto first = start_station(station_config());
+  const fs::path first_log = station_dir() / "station.log";
+  ASSERT_TRUE(
+      wait_until([&] { return read_file(first_log).find("station ready") != std::string::npos; },
+                 std::chrono::milliseconds(30000)))
+      << "the first station never got ready";
+  const fs::path second_log = run_dir_ / "second_station.log";
+  auto second = start_station(station_config(), second_log);
+  const auto status = second->wait_for(std::chrono::milliseconds(30000));
+  ASSERT_TRUE(status.has_value()) << "the second station is still running";
+  EXPECT_FALSE(status->ok());
+  const std::string text = read_file(second_log);
+  EXPECT_NE(text.find("is in use by another process (pid " + std::to_string(first->pid())),
+            std::string::npos)
+      << text;
+  EXPECT_FALSE(first->poll().has_value()) << "the first station stopped";
+  std::vector<std::unique_ptr<mission::ChildProcess>> no_agents;
+  finish_mission(no_agents, *first, seconds(30));
+}
+
 }  // namespace
 }  // namespace keyfleet::testing
