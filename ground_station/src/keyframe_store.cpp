@@ -109,6 +109,14 @@ KeyframeStore::KeyframeStore(const std::string& path, SqliteDb::Mode mode) : db_
     has_conflicts_ = has_table("conflicts");
     return;
   }
+  // A damaged file found now is said once, at start, rather than as failures later on.
+  {
+    auto check = db_.prepare("PRAGMA quick_check(1)");
+    const std::string verdict = check.step() ? check.text(0) : std::string("no answer");
+    if (verdict != "ok")
+      throw SqliteError(path + ": fails SQLite's integrity check (" + verdict +
+                        "): move it aside, or restore it from a copy, and start again");
+  }
   db_.exec(kSchema);
   // Databases written before keyframes carried text regions: their keyframes have none.
   db_.add_column_if_missing("keyframes", "text_regions", "BLOB");

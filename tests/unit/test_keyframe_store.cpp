@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -65,6 +66,38 @@ class KeyframeStoreTest : public ::testing::Test {
 // A keyframe without ORB keypoints (a blank image) has empty feature blobs: they must be stored
 // as empty blobs, not NULL (a NOT NULL column refused the analysis, and the station retried it
 // in a loop).
+TEST(KeyframeStoreIntegrity, ADamagedDatabaseIsRefusedAtStartNamingTheFile) {
+  test::TempDir dir;
+  const std::string path = dir.file("station.sqlite");
+  {
+    KeyframeStore store(path);
+    for (std::uint64_t s = 0; s < 40; ++s) {
+      const Keyframe k = test::make_valid_keyframe("alpha", s, 160, 120);
+      store.store(k, k.image.size(), 1000 + static_cast<std::int64_t>(s));
+    }
+  }
+  { KeyframeStore reopened(path); }  // a sound file opens
+  {
+    // Scribble over the middle of the file (not the first page, which holds the schema).
+    std::fstream file(path, std::ios::in | std::ios::out | std::ios::binary);
+    file.seekg(0, std::ios::end);
+    const auto size = static_cast<long>(file.tellg());
+    ASSERT_GT(size, 3 * 4096);
+    for (long at = 4096; at < size - 4096; at += 4096) {
+      file.seekp(at);
+      const std::string junk(64, '\xA5');
+      file.write(junk.data(), static_cast<std::streamsize>(junk.size()));
+    }
+  }
+  try {
+    KeyframeStore damaged(path);
+    FAIL() << "a damaged database opened";
+  } catch (const SqliteError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("integrity check"), std::string::npos) << e.what();
+  }
+}
+
 TEST(SqliteBlob, AnEmptyBlobIsStoredAsAnEmptyBlobNotNull) {
   test::TempDir dir;
   SqliteDb db(dir.file("blob.sqlite"));
