@@ -156,6 +156,19 @@ TEST_F(DashboardTest, WordsThatAreNotUtf8AreServedReplacedAndSuchQueriesRefused)
             std::string::npos);
 }
 
+TEST_F(DashboardTest, WithoutATokenItAnswersOnlyToLoopbackNames) {
+  auto server = serve();
+  httplib::Client client("127.0.0.1", server->port());
+  const std::string port = std::to_string(server->port());
+  for (const std::string& host : std::vector<std::string>{"127.0.0.1:" + port, "localhost:" + port,
+                                                          "LOCALHOST", "[::1]:" + port})
+    EXPECT_EQ(client.Get("/api/map", {{"Host", host}})->status, 200) << host;
+  // A name that re-resolved to 127.0.0.1 (DNS rebinding), or one that merely starts alike.
+  for (const std::string& host : std::vector<std::string>{
+           "attacker.example", "attacker.example:" + port, "localhost.attacker.example", ""})
+    EXPECT_EQ(client.Get("/api/map", {{"Host", host}})->status, 403) << "'" << host << "'";
+}
+
 TEST_F(DashboardTest, EveryAnswerCarriesTheBrowserProtections) {
   DashboardConfig config;
   config.token = "correct-horse-battery";

@@ -75,6 +75,18 @@ std::string percent_encoded(const std::string& text) {
   return out;
 }
 
+// A Host header naming this machine's loopback, with or without a port.
+bool is_loopback_host(const std::string& host) {
+  std::string name = host;
+  if (!name.empty() && name.front() == '[') {
+    name = name.substr(0, name.find(']') + 1);  // "[::1]:8080" -> "[::1]"
+  } else if (const auto colon = name.find(':'); colon != std::string::npos) {
+    name = name.substr(0, colon);
+  }
+  for (auto& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return name == "localhost" || name == "127.0.0.1" || name == "[::1]";
+}
+
 // Compares in time that depends on the lengths only, not on where the first difference is.
 bool same_secret(const std::string& given, const std::string& secret) {
   unsigned char differ = given.size() == secret.size() ? 0 : 1;
@@ -204,6 +216,12 @@ void DashboardServer::add_routes() {
     res.set_header("Referrer-Policy", "no-referrer");
   });
   s.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    // Without a token the dashboard serves loopback only, and only under a loopback name: a
+    // page from elsewhere whose name re-resolves to 127.0.0.1 (DNS rebinding) is refused.
+    if (config_.token.empty() && !is_loopback_host(req.get_header_value("Host"))) {
+      send_error(res, 403, "this dashboard answers to localhost, 127.0.0.1 or [::1] only");
+      return httplib::Server::HandlerResponse::Handled;
+    }
     if (authorised(req.get_param_value("token"), req.get_header_value("Authorization")))
       return httplib::Server::HandlerResponse::Unhandled;
     send_error(res, 401, "this dashboard needs its token: open it with ?token=...");
