@@ -81,13 +81,14 @@ int run(const ProcessOptions& options) {
     dashboard = std::make_unique<station::web::DashboardServer>(
         config.dashboard, store.path(), [&pool] { return std::optional(pool.counters()); }, logger);
     // Written whole, then renamed: `keyfleet mission` reads it while the station runs.
-    write_file(url_file, dashboard->url() + "\n");
+    const std::string url = dashboard->url();
+    write_file(url_file, url + "\n");
     std::error_code mode_error;  // the URL may hold the token: the owner's alone
     fs::permissions(url_file, fs::perms::owner_read | fs::perms::owner_write,
                     fs::perm_options::replace, mode_error);
     if (mode_error)
       logger->warn("cannot make {} private: {}", url_file.string(), mode_error.message());
-    logger->info("dashboard at {}{}", dashboard->url().substr(0, dashboard->url().find('?')),
+    logger->info("dashboard at {}{}", url.substr(0, url.find('?')),
                  config.dashboard.token.empty() ? "" : " (with its token: see dashboard.url)");
   }
   station.on_stored([&analysis, &dashboard](const Keyframe& k) {

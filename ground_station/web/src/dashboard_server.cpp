@@ -75,16 +75,17 @@ std::string percent_encoded(const std::string& text) {
   return out;
 }
 
-// A Host header naming this machine's loopback, with or without a port.
+// A Host header naming this machine's loopback (is_loopback_address), with or without a port.
 bool is_loopback_host(const std::string& host) {
   std::string name = host;
   if (!name.empty() && name.front() == '[') {
-    name = name.substr(0, name.find(']') + 1);  // "[::1]:8080" -> "[::1]"
+    const auto end = name.find(']');  // "[::1]:8080" -> "::1"
+    name = end == std::string::npos ? std::string() : name.substr(1, end - 1);
   } else if (const auto colon = name.find(':'); colon != std::string::npos) {
     name = name.substr(0, colon);
   }
   for (auto& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return name == "localhost" || name == "127.0.0.1" || name == "[::1]";
+  return is_loopback_address(name);
 }
 
 // Compares in time that depends on the lengths only, not on where the first difference is.

@@ -56,6 +56,40 @@ double seconds_between(std::int64_t from_ns, std::int64_t to_ns) {
   return static_cast<double>(to_ns - from_ns) / 1e9;
 }
 
+// From the agent's start (its log's first line): its station match and its first keyframe
+// stored (`mine`: the robot's stored keyframes).
+void add_start_times(RobotOutcome& r, const std::string& agent_log,
+                     const std::vector<DeliveredKeyframe>& mine) {
+  const auto start = log_time_of(agent_log, {});
+  if (!start) return;
+  if (const auto matched = log_time_of(agent_log, {"station matched"}))
+    r.matched_s = seconds_between(*start, *matched);
+  const auto first = std::min_element(mine.begin(), mine.end(),
+                                      [](const DeliveredKeyframe& a, const DeliveredKeyframe& b) {
+                                        return a.received_ns < b.received_ns;
+                                      });
+  if (first != mine.end()) r.first_keyframe_s = seconds_between(*start, first->received_ns);
+}
+
+// Where the drone's bytes went, from the capture of its link, the idle chatter while the agent
+// lingered, and the goodput. Throws StartupError for an unreadable capture.
+void add_wire_account(RobotOutcome& r, const std::string& agent_log, const std::string& pcap,
+                      const std::string& drone_address, double rate_kbit_s) {
+  WireAccountingOptions options;
+  const auto quiet_from = log_time_of(agent_log, {"lingering"});
+  const auto quiet_to = log_time_of(agent_log, {"lingering done"});
+  // The first second of the linger still carries the last acknowledgements.
+  if (quiet_from && quiet_to && *quiet_to - *quiet_from > 2'000'000'000LL)
+    options.quiet_window = TimeWindow{*quiet_from + 1'000'000'000LL, *quiet_to};
+  WireAccountant accountant(keyframe_writer_entities(agent_log), options);
+  for (const auto& packet : read_pcap(pcap, drone_address)) accountant.add(packet);
+  r.wire_account = accountant.account();
+  if (r.wire_account->keyframe_busy_ns > 0 && rate_kbit_s > 0)
+    r.goodput_fraction = static_cast<double>(r.metrics.payload_bytes) /
+                         seconds_between(0, r.wire_account->keyframe_busy_ns) /
+                         (rate_kbit_s * 1000.0 / 8.0);
+}
+
 }  // namespace
 
 BandwidthExperiment::BandwidthExperiment(BandwidthExperimentConfig config, MissionBinaries binaries,
@@ -228,56 +262,34 @@ ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const
     std::int64_t first_ns = 0;
     for (const auto& k : records.keyframes)
       if (first_ns == 0 || k.received_ns < first_ns) first_ns = k.received_ns;
-    for (const auto& robot : robot_ids) {
+    for (std::size_t i = 0; i < robot_ids.size(); ++i) {
+      const std::string& robot = robot_ids[i];
       RobotOutcome r;
-      const fs::path log = fs::path(out.run_dir) / robot / "agent.log";
-      const auto origin = stream_start_from_log(log.string());
+      const std::string log = (fs::path(out.run_dir) / robot / "agent.log").string();
+      const auto origin = stream_start_from_log(log);
       const auto agent = records.agents.find(robot);
       std::optional<AgentTotals> totals;
       if (agent != records.agents.end()) totals = agent->second;
       r.metrics = robot_metrics(robot, records.keyframes, totals,
                                 netns ? netns->counters(robot) : std::nullopt, origin.value_or(0));
       r.latency_measured = origin.has_value();
-      r.metrics.refused_writes = count_refused_writes(log.string());
+      r.metrics.refused_writes = count_refused_writes(log);
       r.frames_seen = totals ? totals->frames_seen : 0;
       r.pending = totals ? totals->keyframes_pending : 0;
-      const auto agent_start = log_time_of(log.string(), {});
-      if (agent_start) {
-        if (const auto matched = log_time_of(log.string(), {"station matched"}))
-          r.matched_s = seconds_between(*agent_start, *matched);
-        for (const auto& k : records.keyframes)
-          if (k.robot_id == robot &&
-              (!r.first_keyframe_s ||
-               seconds_between(*agent_start, k.received_ns) < *r.first_keyframe_s))
-            r.first_keyframe_s = seconds_between(*agent_start, k.received_ns);
-      }
-      const std::size_t index = static_cast<std::size_t>(&robot - robot_ids.data());
-      if (captures[index]) {
+      std::vector<DeliveredKeyframe> mine;
+      for (const auto& k : records.keyframes)
+        if (k.robot_id == robot) mine.push_back(k);
+      add_start_times(r, log, mine);
+      if (captures[i]) {
         try {
-          WireAccountingOptions options;
-          const auto quiet_from = log_time_of(log.string(), {"lingering"});
-          const auto quiet_to = log_time_of(log.string(), {"lingering done"});
-          // The first second of the linger still carries the last acknowledgements.
-          if (quiet_from && quiet_to && *quiet_to - *quiet_from > 2'000'000'000LL)
-            options.quiet_window = TimeWindow{*quiet_from + 1'000'000'000LL, *quiet_to};
-          WireAccountant accountant(keyframe_writer_entities(log.string()), options);
-          for (const auto& packet :
-               read_pcap(captures[index]->pcap_path(), netns->drone_addresses()[index]))
-            accountant.add(packet);
-          r.wire_account = accountant.account();
-          if (r.wire_account->keyframe_busy_ns > 0 && profile.rate_kbit_s > 0)
-            r.goodput_fraction = static_cast<double>(r.metrics.payload_bytes) /
-                                 seconds_between(0, r.wire_account->keyframe_busy_ns) /
-                                 (profile.rate_kbit_s * 1000.0 / 8.0);
+          add_wire_account(r, log, captures[i]->pcap_path(), netns->drone_addresses()[i],
+                           profile.rate_kbit_s);
         } catch (const StartupError& e) {
           r.capture_error = e.what();
         }
       } else if (netns && config_.capture) {
         r.capture_error = "no capture ran (see the mission's notes)";
       }
-      std::vector<DeliveredKeyframe> mine;
-      for (const auto& k : records.keyframes)
-        if (k.robot_id == robot) mine.push_back(k);
       r.bytes_per_bin =
           bytes_per_bin(mine, first_ns, static_cast<std::int64_t>(config_.bin_s * 1e9));
       out.robots.push_back(std::move(r));
