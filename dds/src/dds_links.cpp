@@ -130,6 +130,8 @@ class DdsAgentLink final : public AgentLink {
     if (after_s <= 0) return;
     const auto now = std::chrono::steady_clock::now();
     if (matched_stations() > 0) {
+      if (rejoined_unmatched_) logger_->info("station matched after rejoining ({})", rejoins_);
+      rejoined_unmatched_ = false;
       last_matched_ = now;
       return;
     }
@@ -140,6 +142,7 @@ class DdsAgentLink final : public AgentLink {
         after_s, ++rejoins_);
     session_.reset();  // the old participant leaves before the new one announces itself
     session_ = std::make_unique<AgentSession>(settings_, robot_id_, logger_);
+    rejoined_unmatched_ = true;
     last_matched_ = now;
   }
 
@@ -158,6 +161,7 @@ class DdsAgentLink final : public AgentLink {
   std::unique_ptr<AgentSession> session_;
   std::chrono::steady_clock::time_point last_matched_;
   unsigned rejoins_ = 0;
+  bool rejoined_unmatched_ = false;  // the match after a rejoin is logged once
   wire::Keyframe keyframe_sample_;
   wire::AgentStats stats_sample_;
 };

@@ -180,6 +180,10 @@ TEST_F(ShapedLink, RobotWithoutAStationRejoinsAndStillDeliversEverything) {
   if (HasFatalFailure()) return;
   EXPECT_EQ(stored_counts()["rejoiner"], 12);
   EXPECT_EQ(outbox_pending("rejoiner"), 0);
+  std::ifstream in(log);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("info station matched after rejoining"), std::string::npos)
+      << "the match after the rejoin is not logged";
 }
 
 // The radio link the product is for: 250 kbit/s with 10 % of the packets lost both ways and

@@ -270,12 +270,13 @@ TEST(LogTime, FindsTheFirstLineWithANeedleOrTheFirstLine) {
     std::ofstream log(path);
     log << "2026-05-01 17:33:30.100 [agent drone_0] info effective configuration:\n"
         << "robot_id: drone_0\n"
+        << "2026-05-01 17:33:31.000 [agent drone_0] warning no station matched for 60 s\n"
         << "2026-05-01 17:33:31.250 [agent drone_0] info station matched\n"
         << "2026-05-01 17:33:40.000 [agent drone_0] info drained; lingering 10 s\n"
         << "2026-05-01 17:33:50.000 [agent drone_0] info lingering done\n";
   }
   const auto first = log_time_of(path.string(), {});
-  const auto matched = log_time_of(path.string(), {"station matched"});
+  const auto matched = log_time_of(path.string(), {"info station matched"});
   const auto linger = log_time_of(path.string(), {"lingering"});
   const auto done = log_time_of(path.string(), {"lingering done"});
   ASSERT_TRUE(first && matched && linger && done);

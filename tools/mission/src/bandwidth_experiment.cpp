@@ -62,7 +62,9 @@ void add_start_times(RobotOutcome& r, const std::string& agent_log,
                      const std::vector<DeliveredKeyframe>& mine) {
   const auto start = log_time_of(agent_log, {});
   if (!start) return;
-  if (const auto matched = log_time_of(agent_log, {"station matched"}))
+  // The agent's "station matched" (or "... matched after rejoining"), not its warning "no
+  // station matched for N s".
+  if (const auto matched = log_time_of(agent_log, {"info station matched"}))
     r.matched_s = seconds_between(*start, *matched);
   const auto first = std::min_element(mine.begin(), mine.end(),
                                       [](const DeliveredKeyframe& a, const DeliveredKeyframe& b) {
