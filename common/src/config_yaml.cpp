@@ -400,7 +400,11 @@ void visit(V& v, DashboardConfig& c) {
   v.field("token", c.token);
   v.field("update_period_s", c.update_period_s, between(0.05, 60.0));
   v.field("thumbnails_per_robot", c.thumbnails_per_robot, between(1, 1000));
-  v.field("threads", c.threads, between(2, 64));
+  v.field("threads", c.threads, between(1, 64));
+  v.field("max_connections", c.max_connections, between(4, 4096));
+  v.field("max_connections_per_client", c.max_connections_per_client, between(1, 4096));
+  v.field("max_event_streams", c.max_event_streams, between(0, 1024));
+  v.field("request_timeout_s", c.request_timeout_s, between(0.1, 300.0));
 }
 
 template <class V>
@@ -460,9 +464,17 @@ void validate(const StationConfig& c, const std::string& origin) {
         origin + ": limits.allowed_robots: " + std::to_string(c.limits.allowed_robots.size()) +
         " robots, more than limits.max_robots (" + std::to_string(c.limits.max_robots) + ")");
   const DashboardConfig& d = c.dashboard;
-  if (d.enabled && !is_loopback_address(d.address) && d.token.empty())
-    throw ConfigError(origin + ": dashboard.token: required when dashboard.address (" + d.address +
-                      ") is not a loopback address: anyone on the network could open it");
+  if (!d.token.empty() && d.token.size() < DashboardConfig::kMinTokenLength)
+    throw ConfigError(origin + ": dashboard.token: " + std::to_string(d.token.size()) +
+                      " characters, fewer than " +
+                      std::to_string(DashboardConfig::kMinTokenLength) +
+                      ": leave it out off loopback and the station generates a strong one");
+  if (d.max_connections_per_client > d.max_connections || d.max_event_streams >= d.max_connections)
+    throw ConfigError(origin + ": dashboard: max_connections_per_client (" +
+                      std::to_string(d.max_connections_per_client) + ") and max_event_streams (" +
+                      std::to_string(d.max_event_streams) +
+                      ") must leave room within max_connections (" +
+                      std::to_string(d.max_connections) + ")");
 }
 
 bool is_loopback_address(const std::string& address) {
