@@ -56,40 +56,51 @@ struct EnumNames<TriggerConfig::Kind> {
 // --- Checks and helpers --------------------------------------------------------------------
 
 Check<double> positive() {
-  return [](const double& v) { return v > 0 ? std::string() : std::string("must be > 0"); };
+  return Check<double>(
+      [](const double& v) { return v > 0 ? std::string() : std::string("must be > 0"); }, "> 0");
 }
 Check<std::string> one_of(std::set<std::string> allowed) {
-  return [allowed](const std::string& v) {
-    if (allowed.count(v)) return std::string();
-    std::string list;
-    for (const auto& a : allowed) list += list.empty() ? a : "|" + a;
-    return "must be one of " + list;
-  };
+  std::string names;
+  for (const auto& a : allowed) names += names.empty() ? a : ", " + a;
+  return Check<std::string>(
+      [allowed](const std::string& v) {
+        if (allowed.count(v)) return std::string();
+        std::string list;
+        for (const auto& a : allowed) list += list.empty() ? a : "|" + a;
+        return "must be one of " + list;
+      },
+      "one of " + names);
 }
 Check<std::string> robot_id_check() {
-  return [](const std::string& v) {
-    return is_valid_robot_id(v) ? std::string() : std::string("must match [A-Za-z0-9_-]{1,32}");
-  };
+  return Check<std::string>(
+      [](const std::string& v) {
+        return is_valid_robot_id(v) ? std::string() : std::string("must match [A-Za-z0-9_-]{1,32}");
+      },
+      "[A-Za-z0-9_-]{1,32}");
 }
 Check<std::string> file_name_check(int max_length) {
   const std::string pattern = "[A-Za-z0-9_.-]{1," + std::to_string(max_length) + "}";
-  return [pattern](const std::string& v) {
-    return std::regex_match(v, std::regex(pattern)) ? std::string() : "must match " + pattern;
-  };
+  return Check<std::string>(
+      [pattern](const std::string& v) {
+        return std::regex_match(v, std::regex(pattern)) ? std::string() : "must match " + pattern;
+      },
+      pattern);
 }
 // "WxH", both sides positive multiples of 32 up to 4096 (the converted detectors' input sizes).
 static Check<std::string> detector_size_check() {
-  return [](const std::string& v) {
-    std::smatch m;
-    const std::string rule = "must be auto or WxH, sides multiples of 32 from 32 to 4096";
-    if (v == "auto") return std::string();
-    if (!std::regex_match(v, m, std::regex("([0-9]{1,4})x([0-9]{1,4})"))) return rule;
-    for (int i = 1; i <= 2; ++i) {
-      const int side = std::stoi(m[i].str());
-      if (side < 32 || side > 4096 || side % 32 != 0) return rule;
-    }
-    return std::string();
-  };
+  return Check<std::string>(
+      [](const std::string& v) {
+        std::smatch m;
+        const std::string rule = "must be auto or WxH, sides multiples of 32 from 32 to 4096";
+        if (v == "auto") return std::string();
+        if (!std::regex_match(v, m, std::regex("([0-9]{1,4})x([0-9]{1,4})"))) return rule;
+        for (int i = 1; i <= 2; ++i) {
+          const int side = std::stoi(m[i].str());
+          if (side < 32 || side > 4096 || side % 32 != 0) return rule;
+        }
+        return std::string();
+      },
+      "auto or WxH, sides multiples of 32 from 32 to 4096");
 }
 const std::set<std::string> kLogLevels = {"trace", "debug", "info", "warn", "error"};
 
@@ -192,9 +203,12 @@ void visit(V& v, DdsLinkProfile& c) {
 template <class V>
 void visit(V& v, DdsSettings& c) {
   v.field("domain_id", c.domain_id, between(0, 232));
-  v.field("partition", c.partition, Check<std::string>([](const std::string& s) {
-            return s.empty() ? std::string("must not be empty") : std::string();
-          }));
+  v.field("partition", c.partition,
+          Check<std::string>(
+              [](const std::string& s) {
+                return s.empty() ? std::string("must not be empty") : std::string();
+              },
+              "not empty"));
   v.field("transport", c.transport);
   v.field("initial_peers", c.initial_peers);
   v.field("shared_memory", c.shared_memory);
@@ -430,6 +444,47 @@ template void visit(ConfigReader&, CodecConfig&);
 template void visit(ConfigWriter&, CodecConfig&);
 template void visit(ConfigReader&, TextReadingConfig&);
 template void visit(ConfigWriter&, TextReadingConfig&);
+template void visit(ConfigReference&, AgentConfig&);
+template void visit(ConfigReference&, StationConfig&);
+template void visit(ConfigReference&, SelectorConfig&);
+template void visit(ConfigReference&, CodecConfig&);
+template void visit(ConfigReference&, TextReadingConfig&);
+
+namespace {
+std::string markdown_cell(const std::string& text) {
+  std::string out;
+  for (char ch : text) out += ch == '|' ? std::string("\\|") : std::string(1, ch);
+  return out;
+}
+
+template <class Config>
+std::string reference_table(const std::string& title, const std::string& intro) {
+  std::vector<ConfigKey> keys;
+  Config defaults;
+  ConfigReference reference(keys, "");
+  visit(reference, defaults);
+  std::ostringstream out;
+  out << "### " << title << "\n\n"
+      << intro << "\n\n"
+      << "| key | type | default | allowed |\n|---|---|---|---|\n";
+  for (const ConfigKey& key : keys)
+    out << "| `" << key.path << "` | " << markdown_cell(key.type) << " | `"
+        << markdown_cell(key.default_value) << "` | " << markdown_cell(key.allowed) << " |\n";
+  return out.str();
+}
+}  // namespace
+
+std::string config_reference_markdown() {
+  return reference_table<AgentConfig>(
+             "Agent",
+             "`robot_agent --config FILE` (`configs/agent.yaml`), and `agent:` in a "
+             "mission file: `AgentConfig`.") +
+         "\n" +
+         reference_table<StationConfig>(
+             "Station",
+             "`ground_station --config FILE` (`configs/station.yaml`), and `station:` "
+             "in a mission file: `StationConfig`.");
+}
 
 void validate(const DdsSettings& dds, const std::string& origin) {
   if (dds.security.enabled && dds.security.directory.empty())

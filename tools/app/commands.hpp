@@ -31,6 +31,7 @@ void add_ocr_commands(CLI::App& app);
 void add_segmenter_commands(CLI::App& app);
 void add_security_commands(CLI::App& app);
 void add_bench_commands(CLI::App& app);
+void add_config_commands(CLI::App& app);
 // `selection triggers`, under the `selection` subcommand.
 void add_trigger_commands(CLI::App& selection);
 

@@ -195,6 +195,7 @@ int main(int argc, char** argv) {
   keyfleet::commands::add_experiment_commands(app);
   keyfleet::commands::add_eval_commands(app);
   keyfleet::commands::add_places_commands(app);
+  keyfleet::commands::add_config_commands(app);
 
   CLI11_PARSE(app, argc, argv);
   try {

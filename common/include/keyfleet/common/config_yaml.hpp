@@ -50,26 +50,51 @@ std::string enum_name(E value) {
   return "?";
 }
 
-// A check returns an empty string when the value is allowed, else what is allowed.
+// A check returns an empty string when the value is allowed, else what is allowed. It may
+// carry a short description of what it allows ("0 to 232"), which the configuration reference
+// prints; a check without one is listed as "checked".
 template <class T>
-using Check = std::function<std::string(const T&)>;
+class Check {
+ public:
+  Check() = default;
+  template <class F, class = std::enable_if_t<!std::is_same_v<std::decay_t<F>, Check> &&
+                                              std::is_invocable_r_v<std::string, F, const T&>>>
+  Check(F rule, std::string description = {})  // NOLINT: lambdas convert implicitly
+      : rule_(std::move(rule)), description_(std::move(description)) {}
+
+  std::string operator()(const T& value) const { return rule_(value); }
+  explicit operator bool() const { return static_cast<bool>(rule_); }
+  const std::string& description() const { return description_; }
+
+ private:
+  std::function<std::string(const T&)> rule_;
+  std::string description_;
+};
 
 template <class T>
 Check<T> at_least(T low) {
-  return [low](const T& v) {
-    std::ostringstream msg;
-    // Written so that NaN fails: it compares false with everything.
-    if (!(v >= low)) msg << "must be >= " << low;
-    return msg.str();
-  };
+  std::ostringstream text;
+  text << ">= " << low;
+  return Check<T>(
+      [low](const T& v) {
+        std::ostringstream msg;
+        // Written so that NaN fails: it compares false with everything.
+        if (!(v >= low)) msg << "must be >= " << low;
+        return msg.str();
+      },
+      text.str());
 }
 template <class T>
 Check<T> between(T low, T high) {
-  return [low, high](const T& v) {
-    std::ostringstream msg;
-    if (!(v >= low && v <= high)) msg << "must be between " << low << " and " << high;
-    return msg.str();
-  };
+  std::ostringstream text;
+  text << low << " to " << high;
+  return Check<T>(
+      [low, high](const T& v) {
+        std::ostringstream msg;
+        if (!(v >= low && v <= high)) msg << "must be between " << low << " and " << high;
+        return msg.str();
+      },
+      text.str());
 }
 Check<double> positive();
 Check<std::string> one_of(std::set<std::string> allowed);
@@ -232,6 +257,97 @@ class ConfigWriter {
  private:
   YAML::Node node_;
 };
+
+// One key of a configuration file, as the configuration reference lists it.
+struct ConfigKey {
+  std::string path;           // "dds.link.rate_kbit_s"
+  std::string type;           // "number", "list of strings", "choice"
+  std::string default_value;  // a default-constructed struct's value, as YAML spells it
+  std::string allowed;        // what the check allows; empty when the key has none
+};
+
+// The third visitor: lists every key of a struct (default-constructed by the caller) with its
+// type, its default and what its check allows, for `keyfleet config reference`.
+class ConfigReference {
+ public:
+  ConfigReference(std::vector<ConfigKey>& keys, std::string path)
+      : keys_(keys), path_(std::move(path)) {}
+
+  template <class T>
+  void field(const char* key, const T& value, Check<T> check = {}) {
+    add<T>(key, type_of<T>(), text_of(value), check);
+    if constexpr (IsStructVector<T>::value) {
+      // Each element's keys, from a default element.
+      typename T::value_type element{};
+      ConfigReference nested(keys_, join(key) + "[]");
+      visit(nested, element);
+    }
+  }
+  template <class T>
+  void field(const char* key, const std::optional<T>& value, Check<T> check = {}) {
+    add<T>(key, type_of<T>() + ", optional", value ? text_of(*value) : "unset", check);
+  }
+  template <class S>
+  void section(const char* key, S& sub) {
+    ConfigReference nested(keys_, join(key));
+    visit(nested, sub);
+  }
+
+ private:
+  template <class T>
+  void add(const char* key, std::string type, std::string default_text, const Check<T>& check) {
+    ConfigKey row{join(key), std::move(type), std::move(default_text), check.description()};
+    if (row.allowed.empty()) row.allowed = check ? "checked" : "any";
+    if constexpr (std::is_enum_v<T>) {
+      row.allowed = "one of ";
+      for (const auto& [enum_value, name] : EnumNames<T>::kAll) {
+        (void)enum_value;
+        row.allowed += std::string(row.allowed.size() > 7 ? ", " : "") + name;
+      }
+    }
+    keys_.push_back(std::move(row));
+  }
+  std::string join(const char* key) const { return path_.empty() ? key : path_ + "." + key; }
+
+  template <class T>
+  static std::string type_of() {
+    if constexpr (std::is_enum_v<T>) return "choice";
+    if constexpr (std::is_same_v<T, bool>) return "bool";
+    if constexpr (std::is_integral_v<T> && std::is_unsigned_v<T>) return "integer >= 0";
+    if constexpr (std::is_integral_v<T>) return "integer";
+    if constexpr (std::is_floating_point_v<T>) return "number";
+    if constexpr (IsStructVector<T>::value) return "list of mappings";
+    if constexpr (IsVector<T>::value) return "list of " + type_of<typename T::value_type>() + "s";
+    return "string";
+  }
+  template <class T>
+  static std::string text_of(const T& value) {
+    if constexpr (std::is_enum_v<T>) {
+      return enum_name(value);
+    } else if constexpr (std::is_same_v<T, bool>) {
+      return value ? "true" : "false";
+    } else if constexpr (std::is_same_v<T, std::string>) {
+      return value.empty() ? "\"\"" : value;
+    } else if constexpr (IsStructVector<T>::value) {
+      return value.empty() ? "[]" : "(" + std::to_string(value.size()) + " entries)";
+    } else if constexpr (IsVector<T>::value) {
+      std::string out;
+      for (const auto& item : value) out += (out.empty() ? "" : ", ") + text_of(item);
+      return "[" + out + "]";
+    } else {
+      std::ostringstream out;
+      out << value;
+      return out.str();
+    }
+  }
+
+  std::vector<ConfigKey>& keys_;
+  std::string path_;
+};
+
+// Every key of the agent's and the station's config files as Markdown tables (key, type,
+// default, allowed): the generated part of docs/configuration.md.
+std::string config_reference_markdown();
 
 // The descriptions of the structs that the tools' configs embed (defined and instantiated for
 // both visitors in config_yaml.cpp).
