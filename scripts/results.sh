@@ -1,18 +1,24 @@
 #!/usr/bin/env bash
-# Regenerates the README's results blocks from fresh runs, with the machine and the date:
-#   scripts/results.sh                 # both blocks (about 5 + 8 minutes here, as root)
-#   scripts/results.sh eval            # `keyfleet eval configs/eval.yaml` only
-#   scripts/results.sh bandwidth       # `keyfleet experiment bandwidth configs/experiment_bandwidth.yaml` only
+# Measures again and writes each result as a dated page, docs/results/<date>-<subject>.md, listed
+# in docs/results/README.md (an earlier page and its reading stay as they were):
+#   scripts/results.sh                 # eval and bandwidth (about 5 + 8 minutes here, as root)
+#   scripts/results.sh eval            # `keyfleet eval configs/eval.yaml`: <date>-fig6-one-street.md
+#   scripts/results.sh bandwidth       # `keyfleet experiment bandwidth configs/experiment_bandwidth.yaml`:
+#                                      # <date>-bandwidth.md
 #   scripts/results.sh radio           # the weak-radio matrix (configs/experiment_bandwidth_radio.yaml,
-#                                      # about 90 minutes as root): docs/results/<date>-radio-links.md
-#   scripts/results.sh ocr             # `keyfleet ocr eval` on the real sets (about 40 minutes)
+#                                      # about 90 minutes as root): <date>-radio-links.md
+#   scripts/results.sh ocr             # `keyfleet ocr eval` on the real sets (about 40 minutes):
+#                                      # <date>-text-reading.md
 #   scripts/results.sh seeds           # Fig. 6 over 3 forward- and 3 side-looking streets
-#                                      # (`keyfleet eval --seeds`, about 30 minutes here)
+#                                      # (`keyfleet eval --seeds`, about 30 minutes here):
+#                                      # <date>-fig6-over-seeds.md
 #   scripts/results.sh places          # place retrieval bow / cnn / fusion on the same streets
-#                                      # and vpr_corridor (`keyfleet places eval`)
-# The blocks between <!-- results:NAME:begin --> and <!-- results:NAME:end --> are replaced;
-# their plots go to docs/results/. KEYFLEET_BUILD_DIR overrides build/; KEYFLEET_EVAL_SCENARIO_DIR
-# evaluates a scenario generated before instead of generating the default one.
+#                                      # and vpr_corridor (`keyfleet places eval`):
+#                                      # <date>-place-recognition.md
+# Plots go beside the page as <date>-<subject>-<plot>.png. The README's "where it stands" table
+# links the newest page of each subject: point it at a new page by hand, with what it says.
+# KEYFLEET_BUILD_DIR overrides build/; KEYFLEET_EVAL_SCENARIO_DIR evaluates a scenario generated
+# before instead of generating the default one.
 set -euo pipefail
 
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -27,20 +33,30 @@ KEYFLEET_BUILD_DIR="$build" "$root/scripts/fetch_ppocr.sh"
 machine="$(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')"
 when=$(date -u '+%Y-%m-%d %H:%M UTC')
 
-# Replaces the README block between <!-- results:NAME:begin --> and ...:end --> with stdin.
-replace_block() {
+day=$(date -u +%Y-%m-%d)
+pages="$root/docs/results"
+
+# Writes stdin as the page docs/results/<day>-SUBJECT.md titled TITLE and lists it, newest first,
+# in docs/results/README.md between <!-- results:index:begin --> and <!-- results:index:end -->.
+write_page() {
+  local subject=$1 title=$2
+  local name="$day-$subject.md"
+  mkdir -p "$pages"
+  { echo "# $title, $day"; echo; cat; } > "$pages/$name"
   "$python" -c '
 import sys
-readme, name = sys.argv[1:]
-block = sys.stdin.read()
-begin, end = f"<!-- results:{name}:begin -->", f"<!-- results:{name}:end -->"
-old = open(readme).read()
+index, name, title = sys.argv[1:]
+begin, end = "<!-- results:index:begin -->", "<!-- results:index:end -->"
+old = open(index).read()
 if begin not in old or end not in old:
-    sys.exit(f"{readme}: the {begin} ... {end} markers are missing")
+    sys.exit(f"{index}: the {begin} ... {end} markers are missing")
 head, rest = old.split(begin, 1)
-_, tail = rest.split(end, 1)
-open(readme, "w").write(head + begin + "\n" + block + end + tail)
-' "$root/README.md" "$1"
+listed, tail = rest.split(end, 1)
+line = f"- [{name[:10]}: {title}]({name})"
+lines = [l for l in listed.strip().splitlines() if f"]({name})" not in l]
+open(index, "w").write(head + begin + "\n" + "\n".join([line] + lines) + "\n" + end + tail)
+' "$pages/README.md" "$name" "$title"
+  echo "docs/results/$name written"
 }
 
 eval_block() {
@@ -50,24 +66,24 @@ eval_block() {
   local start=$SECONDS
   "$build/bin/keyfleet" eval "${args[@]}"
   local took=$((SECONDS - start))
-  mkdir -p "$root/docs/results"
-  cp "$out/fig6a_words.png" "$root/docs/results/eval_fig6a_words.png"
-  cp "$out/fig6b_places.png" "$root/docs/results/eval_fig6b_places.png"
-  ("$python" - "$out/report.md" "$machine" "$when" "$took" <<'PY'
+  mkdir -p "$pages"
+  cp "$out/fig6a_words.png" "$pages/$day-fig6-one-street-fig6a_words.png"
+  cp "$out/fig6b_places.png" "$pages/$day-fig6-one-street-fig6b_places.png"
+  ("$python" - "$out/report.md" "$machine" "$when" "$took" "$day" <<'PY'
 import re, sys
-report, machine, when, took = sys.argv[1:]
+report, machine, when, took, day = sys.argv[1:]
 text = open(report).read()
 body = text[text.index("## (a)"):]
-body = re.sub(r"^## ", "#### ", body, flags=re.M)
-body = body.replace("](fig6a_words.png)", "](docs/results/eval_fig6a_words.png)")
-body = body.replace("](fig6b_places.png)", "](docs/results/eval_fig6b_places.png)")
+body = re.sub(r"^## ", "### ", body, flags=re.M)
+body = body.replace("](fig6a_words.png)", f"]({day}-fig6-one-street-fig6a_words.png)")
+body = body.replace("](fig6b_places.png)", f"]({day}-fig6-one-street-fig6b_places.png)")
 intro = text[text.index("Scenario "):text.index("## (a)")].strip()
 block = (f"*Measured {when} on {machine} (shared and busy: figures of time are noisy), "
          f"`scripts/results.sh` ({took} s).* {intro}\n\n{body.strip()}\n")
 sys.stdout.write(block)
 PY
-  ) | replace_block eval
-  echo "README results:eval block updated from $out"
+  ) | write_page fig6-one-street "Fig. 6 on one street"
+  echo "from $out"
 }
 
 bandwidth_block() {
@@ -79,13 +95,13 @@ bandwidth_block() {
   local took=$((SECONDS - start))
   local out
   out=$(ls -dt "$runs"/bandwidth-* | head -1)
-  mkdir -p "$root/docs/results"
+  mkdir -p "$pages"
   for plot in savings latency bandwidth_netns bandwidth_flow_control; do
-    [ -f "$out/$plot.png" ] && cp "$out/$plot.png" "$root/docs/results/bandwidth_$plot.png"
+    [ -f "$out/$plot.png" ] && cp "$out/$plot.png" "$pages/$day-bandwidth-$plot.png"
   done
-  ("$python" - "$out/report.md" "$machine" "$when" "$took" "$root/docs/results" <<'PY'
+  ("$python" - "$out/report.md" "$machine" "$when" "$took" "$pages" "$day" <<'PY'
 import os, sys
-report, machine, when, took, plots = sys.argv[1:]
+report, machine, when, took, plots, day = sys.argv[1:]
 lines = open(report).read().splitlines()
 first = next(i for i, l in enumerate(lines) if l.startswith("| mission"))
 last = first
@@ -93,16 +109,16 @@ while last < len(lines) and lines[last].startswith("|"):
     last += 1
 table = "\n".join(lines[first:last])
 notes = next((l for l in lines[last:] if l.startswith("Latency:")), "")
-pictures = [f"![{name}](docs/results/bandwidth_{name}.png)"
+pictures = [f"![{name}]({day}-bandwidth-{name}.png)"
             for name in ("bandwidth_netns", "bandwidth_flow_control", "savings", "latency")
-            if os.path.exists(os.path.join(plots, f"bandwidth_{name}.png"))]
+            if os.path.exists(os.path.join(plots, f"{day}-bandwidth-{name}.png"))]
 block = (f"*Measured {when} on {machine} (shared: figures of time are noisy), "
          f"`scripts/results.sh bandwidth` ({took} s).*\n\n{table}\n\n{notes}\n\n"
          + " ".join(pictures) + "\n")
 sys.stdout.write(block)
 PY
-  ) | replace_block bandwidth
-  echo "README results:bandwidth block updated from $out"
+  ) | write_page bandwidth "Bandwidth experiments: flow control and netns links"
+  echo "from $out"
 }
 
 ocr_block() {
@@ -118,27 +134,27 @@ ocr_block() {
     echo "station's reader settings for every engine; the first 100 photos of each photo set.*"
     echo
     cat "$out"
-  } | replace_block ocr
-  echo "README results:ocr block updated from $out"
+  } | write_page text-reading "Text reading on real photos"
+  echo "from $out"
 }
 
-# One street kind over several seeds: the README table keeps vslam and full (every strategy is in
-# the run's seeds.md), the plot goes to docs/results/seeds_<kind>.png.
+# One street kind over several seeds: the page's table keeps vslam and full (every strategy is in
+# the run's seeds.md), the plot goes beside the page.
 seeds_kind() {
   local kind=$1 config=$2
   shift 2
   local out="$root/runs/results-seeds-$kind"  # a rerun reuses the seeds already evaluated
   "$build/bin/keyfleet" eval "$config" --out "$out" --seeds "$@" >&2
-  mkdir -p "$root/docs/results"
-  cp "$out/seeds_fig6.png" "$root/docs/results/seeds_$kind.png"
-  "$python" - "$out/seeds.md" "$kind" <<'PY'
+  mkdir -p "$pages"
+  cp "$out/seeds_fig6.png" "$pages/$day-fig6-over-seeds-$kind.png"
+  "$python" - "$out/seeds.md" "$kind" "$day" <<'PY'
 import sys
-report, kind = sys.argv[1:]
+report, kind, day = sys.argv[1:]
 lines = open(report).read().splitlines()
 rows = [l for l in lines if l.startswith("|")]
 keep = rows[:2] + [r for r in rows[2:] if r.split("|")[1].strip() in ("vslam", "full")]
 print("\n".join(keep))
-print(f"\n![Fig. 6 over seeds, {kind}](docs/results/seeds_{kind}.png)\n")
+print(f"\n![Fig. 6 over seeds, {kind}]({day}-fig6-over-seeds-{kind}.png)\n")
 PY
 }
 
@@ -160,8 +176,7 @@ seeds_block() {
     echo "**Side-looking street** (\`configs/eval_side.yaml\`; seeds 21, 22, 23):"
     echo
     echo "$side"
-  } | replace_block seeds
-  echo "README results:seeds block updated"
+  } | write_page fig6-over-seeds "Fig. 6 over seeds"
 }
 
 places_block() {
@@ -201,25 +216,21 @@ places_block() {
     sed '/^Per view/d' "$root/runs/results-places-forward/places.md"
     if [ "$corridor" = 1 ]; then cat "$root/runs/results-places-corridor/places.md"; else
       grep '^Per view' "$root/runs/results-places-side/places.md"; fi
-  } | replace_block places
-  echo "README results:places block updated"
+  } | write_page place-recognition "Place recognition: bag of words, PlaceNet and fusion"
 }
 
-# The weak-radio matrix (configs/experiment_bandwidth_radio.yaml, as root: network namespaces): a dated
-# page docs/results/<date>-radio-links.md with its tables; the README's radio block points to it.
+# The weak-radio matrix (configs/experiment_bandwidth_radio.yaml, as root: network namespaces).
 radio_block() {
   local runs="$root/runs"
-  mkdir -p "$runs" "$root/docs/results"
+  mkdir -p "$runs" "$pages"
   local start=$SECONDS
   "$build/bin/keyfleet" experiment bandwidth "$root/configs/experiment_bandwidth_radio.yaml" --run-root "$runs"
   local took=$((SECONDS - start))
-  local out page
+  local out
   out=$(ls -dt "$runs"/radio-* | head -1)
-  page="docs/results/$(date -u +%Y-%m-%d)-radio-links.md"
+  [ -f "$out/radio.png" ] && cp "$out/radio.png" "$pages/$day-radio-links.png"
   {
-    echo "# Radio links: the matrix, $when"
-    echo
-    echo "Measured on $machine (shared: figures of time are noisy) with"
+    echo "Measured $when on $machine (shared: figures of time are noisy) with"
     echo "\`scripts/results.sh radio\` ($took s): \`keyfleet experiment bandwidth"
     echo "configs/experiment_bandwidth_radio.yaml\`. Per mission, medians over its robots (the worst p95)."
     echo "Goodput: stored keyframe payload over the time the keyframe writer had data or repairs"
@@ -231,15 +242,12 @@ radio_block() {
     echo "drain, sized to the link, ended."
     echo
     "$python" "$root/tools/report/radio_table.py" "$out"
-    if [ -f "$out/radio.png" ]; then
-      cp "$out/radio.png" "$root/${page%.md}.png"
+    if [ -f "$pages/$day-radio-links.png" ]; then
       echo
-      echo "![goodput and latency]($(basename "${page%.md}.png"))"
+      echo "![goodput and latency]($day-radio-links.png)"
     fi
-  } > "$root/$page"
-  printf '*Measured %s on %s, `scripts/results.sh radio`: [%s](%s).*\n\n' "$when" "$machine" \
-    "$page" "$page" | replace_block radio
-  echo "$page written from $out"
+  } | write_page radio-links "Radio links: the matrix"
+  echo "from $out"
 }
 
 blocks=("$@")

@@ -11,7 +11,7 @@
 # by generated validation; ICDAR rows of the evaluation are then skipped). Training resumes from
 # WORK_DIR/train/latest.pt when rerun; its curve is WORK_DIR/train/validation.csv.
 # INIT=MODEL.onnx fine-tunes an exported model instead of training from scratch, the way the
-# real-photo candidate was made from the shipped model (README, "On real photos"): lr 3e-4, half
+# real-photo candidate was made from the shipped model (docs/results/2026-11-24-semantic-model.md): lr 3e-4, half
 # of each batch ICDAR train, 8000 steps (STEPS's default then), seed 3, the last checkpoint
 # exported (the validation split's 150 generated views did not predict held-out streets between
 # checkpoints). ICDAR_SCALE (default 0.5) is the scale the photos are loaded at before cropping.

@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 SKIP = 77
-BUILD_TIMEOUT_S = 2400     # a cold agent image took 13-17 min on two busy cores (README)
+BUILD_TIMEOUT_S = 2400     # a cold agent image took 13-17 min on two busy cores
 START_TIMEOUT_S = 120
 MISSION_TIMEOUT_S = 300    # 150 frames (5 s) per drone, then the drain
 STATION_STOP_TIMEOUT_S = 90  # the station drains its analysis (drain_timeout_s 40) on SIGTERM

@@ -81,7 +81,7 @@ TEST(ShippedMiniNet, FindsTextPixelsOfGeneratedViewsAboveStatedFloors) {
 // Real photos no model here was trained or tuned on: the first 20 of ICDAR 2015 test_clean, word
 // boxes (and `###` ones) as truth, at the model's input size, as Table III scores them. Floors
 // about 0.015-0.025 below the shipped model's own figures there (recall 0.084, precision 0.102,
-// IoU 0.048 when recorded): weak, as the model is on real photos (README), but a model that
+// IoU 0.048 when recorded): weak, as the model is on real photos, but a model that
 // finds less real text than it fails.
 TEST(ShippedMiniNet, FindsTextPixelsOfUnseenRealPhotosAboveStatedFloors) {
   KEYFLEET_REQUIRE_DATA("icdar2015/test_clean");

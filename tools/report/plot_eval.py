@@ -2,7 +2,7 @@
 """Fig. 6 (a) and (b) of Alonso et al. (ICRA 2019) from `keyfleet eval`'s results.json.
 
 usage: plot_eval.py OUT_DIR   (reads OUT_DIR/results.json, writes fig6a_words.png and
-fig6b_places.png there). Debian's python3-matplotlib; small PNGs for the README.
+fig6b_places.png there). Debian's python3-matplotlib; small PNGs for the docs' result pages.
 """
 import json
 import sys
