@@ -14,14 +14,13 @@ BUILD_PACKAGES=(
   libfastrtps-dev libfastcdr-dev fastddsgen fastdds-tools
   libopencv-dev libopencv-contrib-dev
   libeigen3-dev
-  libboost-graph-dev
+  libboost-dev libboost-graph-dev
   libtesseract-dev
   libprotobuf-dev protobuf-compiler
   libspdlog-dev libfmt-dev
   libyaml-cpp-dev
   libcli11-dev
   nlohmann-json3-dev
-  libcpp-httplib-dev
   libsqlite3-dev
   libjpeg62-turbo-dev
   libpcap-dev
@@ -36,12 +35,13 @@ RUNTIME_PACKAGES=(
   libopencv-features2d406 libopencv-calib3d406 libopencv-dnn406
 )
 RUNTIME_AGENT_PACKAGES=(libopencv-videoio406 libopencv-video406)
-RUNTIME_STATION_PACKAGES=(libprotobuf32 libtesseract5 tesseract-ocr-eng wamerican libcpp-httplib0.11)
+RUNTIME_STATION_PACKAGES=(libprotobuf32 libtesseract5 tesseract-ocr-eng wamerican)
 
 PACKAGES=(
   "${BUILD_PACKAGES[@]}"
   tesseract-ocr-eng wamerican sqlite3
   libgtest-dev libgmock-dev googletest
+  libcpp-httplib-dev
   libbenchmark-dev
   clang-14 libclang-rt-14-dev libfuzzer-14-dev
   procps

@@ -3,6 +3,7 @@
 #include <httplib.h>
 #include <nlohmann/json.hpp>
 
+#include <csignal>
 #include <fstream>
 #include <future>
 #include <sstream>
@@ -188,16 +189,17 @@ TEST_F(DashboardTest, EveryAnswerCarriesTheBrowserProtections) {
   }
   // A token that is not URL-safe is percent-encoded in the URL the station prints.
   DashboardConfig odd;
-  odd.token = "a b&c=d/e";
+  odd.token = "a b&c=d/e+f%g-hijk";
   auto odd_server = serve(odd);
-  EXPECT_NE(odd_server->url().find("?token=a%20b%26c%3Dd%2Fe"), std::string::npos)
+  EXPECT_NE(odd_server->url().find("?token=a%20b%26c%3Dd%2Fe%2Bf%25g-hijk"), std::string::npos)
       << odd_server->url();
   httplib::Client odd_client("127.0.0.1", odd_server->port());
-  EXPECT_EQ(odd_client.Get("/api/map?token=a%20b%26c%3Dd%2Fe")->status, 200);
+  EXPECT_EQ(odd_client.Get("/api/map?token=a%20b%26c%3Dd%2Fe%2Bf%25g-hijk")->status, 200);
   // No request body is read, whatever its size: with the token the answer is 413, without it
   // 401 (the token is checked before any body would be), or the connection is closed while
   // the client is still sending.
   const std::string body(1 << 20, 'x');
+  std::signal(SIGPIPE, SIG_IGN);  // the server may close while the client still sends
   for (const auto& [path, refusal] :
        {std::pair<std::string, int>{"/api/map?token=correct-horse-battery", 413},
         std::pair<std::string, int>{"/api/map", 401}}) {
@@ -234,16 +236,35 @@ TEST_F(DashboardTest, MapAndBandwidthComeAsJsonAndSvg) {
 TEST_F(DashboardTest, BoundWiderItNeedsItsTokenOnEveryRequest) {
   DashboardConfig config;
   config.address = "0.0.0.0";
+  config.token = "s3cret";  // too short to be one
   EXPECT_THROW(serve(config), StartupError);
-  config.token = "s3cret";
+  config.token = "s3cret-s3cret-s3cret";
   auto server = serve(config);
-  EXPECT_NE(server->url().find("?token=s3cret"), std::string::npos);
+  EXPECT_NE(server->url().find("?token=s3cret-s3cret-s3cret"), std::string::npos);
   httplib::Client client("127.0.0.1", server->port());
   EXPECT_EQ(client.Get("/api/summary")->status, 401);
   EXPECT_EQ(client.Get("/")->status, 401);
   EXPECT_EQ(client.Get("/api/summary?token=wrong")->status, 401);
-  EXPECT_EQ(client.Get("/api/summary?token=s3cret")->status, 200);
-  EXPECT_EQ(client.Get("/api/summary", {{"Authorization", "Bearer s3cret"}})->status, 200);
+  EXPECT_EQ(client.Get("/api/summary?token=s3cret-s3cret-s3cret")->status, 200);
+  EXPECT_EQ(client.Get("/api/summary", {{"Authorization", "Bearer s3cret-s3cret-s3cret"}})->status,
+            200);
+}
+
+TEST_F(DashboardTest, BoundWiderWithoutATokenItGeneratesAStrongOne) {
+  DashboardConfig config;
+  config.address = "0.0.0.0";
+  auto first = serve(config);
+  auto second = serve(config);
+  const std::string url = first->url();
+  const auto at = url.find("?token=");
+  ASSERT_NE(at, std::string::npos) << url;
+  const std::string token = url.substr(at + 7);
+  EXPECT_EQ(token.size(), 64u);  // 32 random bytes in hex
+  EXPECT_EQ(token.find_first_not_of("0123456789abcdef"), std::string::npos) << token;
+  EXPECT_EQ(second->url().find(token), std::string::npos) << "two stations, one token";
+  httplib::Client client("127.0.0.1", first->port());
+  EXPECT_EQ(client.Get("/api/summary")->status, 401);
+  EXPECT_EQ(client.Get(("/api/summary?token=" + token).c_str())->status, 200);
 }
 
 TEST_F(DashboardTest, OpenPagesAreSentTheSummaryAndEachChange) {
@@ -312,10 +333,18 @@ TEST(EventHub, ReadersGetTheNewestEventOnceAndCloseWakesThem) {
   EXPECT_TRUE(hub.closed());
 }
 
-TEST(DashboardConfig, OffLoopbackItNeedsATokenAndBadValuesAreRefused) {
+TEST(DashboardConfig, OffLoopbackTokensMustBeStrongAndBadValuesAreRefused) {
   EXPECT_NO_THROW(parse_station_config("dashboard: {address: 127.0.0.2, port: 8080}", "t"));
-  EXPECT_THROW(parse_station_config("dashboard: {address: 0.0.0.0}", "t"), ConfigError);
-  EXPECT_NO_THROW(parse_station_config("dashboard: {address: 0.0.0.0, token: x}", "t"));
+  // Off loopback without a token the station generates one; a given token must be strong.
+  EXPECT_NO_THROW(parse_station_config("dashboard: {address: 0.0.0.0}", "t"));
+  EXPECT_THROW(parse_station_config("dashboard: {address: 0.0.0.0, token: x}", "t"), ConfigError);
+  EXPECT_THROW(parse_station_config("dashboard: {token: fifteen-chars-x}", "t"), ConfigError);
+  EXPECT_NO_THROW(parse_station_config("dashboard: {token: sixteen-chars-xx}", "t"));
+  EXPECT_THROW(parse_station_config("dashboard: {max_connections: 8, max_event_streams: 8}", "t"),
+               ConfigError);
+  EXPECT_THROW(
+      parse_station_config("dashboard: {max_connections: 8, max_connections_per_client: 9}", "t"),
+      ConfigError);
   EXPECT_NO_THROW(parse_station_config("dashboard: {address: 0.0.0.0, enabled: false}", "t"));
   EXPECT_THROW(parse_station_config("dashboard: {port: 70000}", "t"), ConfigError);
   EXPECT_THROW(parse_station_config("dashboard: {update_period_s: .nan}", "t"), ConfigError);

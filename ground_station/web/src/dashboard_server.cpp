@@ -1,8 +1,11 @@
 #include "keyfleet/station/web/dashboard_server.hpp"
 
-#include <httplib.h>
+#include <sys/resource.h>
+
+#include <random>
 
 #include "assets.hpp"
+#include "http_server.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/station/web/figures.hpp"
 #include "keyfleet/station/web/run_view.hpp"
@@ -42,11 +45,11 @@ nlohmann::json card_json(const KeyframeCard& card) {
           {"figure", keyframe_figure(card, image_href(card.info))}};
 }
 
-std::size_t size_param(const httplib::Request& req, const char* name, std::size_t fallback,
+std::size_t size_param(const HttpRequest& req, const char* name, std::size_t fallback,
                        std::size_t most) {
   if (!req.has_param(name)) return fallback;
   try {
-    return std::min<std::size_t>(std::stoul(req.get_param_value(name)), most);
+    return std::min<std::size_t>(std::stoul(req.param(name)), most);
   } catch (const std::exception&) {
     return fallback;
   }
@@ -106,13 +109,61 @@ bool is_utf8(const std::string& text) {
   }
 }
 
-void send_json(httplib::Response& res, const nlohmann::json& doc) {
-  res.set_content(json_text(doc), "application/json");
+HttpResponse json_answer(const nlohmann::json& doc, int status = 200) {
+  return {status, "application/json", json_text(doc), {}, false};
 }
 
-void send_error(httplib::Response& res, int status, const std::string& message) {
-  res.status = status;
-  send_json(res, {{"error", message}});
+HttpResponse error_answer(int status, const std::string& message) {
+  return json_answer({{"error", message}}, status);
+}
+
+// 32 bytes from the system's random source, as 64 hex digits.
+std::string generated_token() {
+  std::random_device source;  // getrandom(2) on Linux
+  static const char* kHex = "0123456789abcdef";
+  std::string token;
+  for (int i = 0; i < 8; ++i) {
+    const std::uint32_t word = source();
+    for (int nibble = 0; nibble < 8; ++nibble) token += kHex[(word >> (4 * nibble)) & 0xF];
+  }
+  return token;
+}
+
+// File descriptors the dashboard's connections may hold: what is left of the process's limit
+// after those kept for DDS, the databases, the reports and the logs (kReservedDescriptors),
+// and never more than `wanted`.
+constexpr std::size_t kReservedDescriptors = 512;
+
+std::size_t connection_budget(std::size_t wanted, const Logger& logger) {
+  rlimit limit{};
+  if (getrlimit(RLIMIT_NOFILE, &limit) != 0) return wanted;
+  // The soft limit is often 1,024 beside a far higher hard one: take what is allowed.
+  if (limit.rlim_cur < limit.rlim_max) {
+    rlimit raised = limit;
+    raised.rlim_cur = limit.rlim_max == RLIM_INFINITY ? 65536 : limit.rlim_max;
+    if (setrlimit(RLIMIT_NOFILE, &raised) == 0) limit = raised;
+  }
+  if (limit.rlim_cur == RLIM_INFINITY) return wanted;
+  const std::size_t spare = limit.rlim_cur > 2 * kReservedDescriptors
+                                ? limit.rlim_cur - kReservedDescriptors
+                                : limit.rlim_cur / 2;
+  if (spare >= wanted) return wanted;
+  logger->warn("dashboard: {} connections at most (open-file limit {}, {} kept for the station)",
+               spare, static_cast<unsigned long long>(limit.rlim_cur), limit.rlim_cur - spare);
+  return std::max<std::size_t>(spare, 4);
+}
+
+// On every answer, errors and the server's own refusals included: scripts only from the page's
+// own origin, no framing (the dashboard cannot be clicked through from another page), types as
+// sent, no referrer (the token travels in the URL).
+HttpHeaders browser_protections() {
+  return {{"Content-Security-Policy",
+           "default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; "
+           "img-src 'self' data:; object-src 'none'; base-uri 'none'; "
+           "form-action 'self'; frame-ancestors 'none'"},
+          {"X-Content-Type-Options", "nosniff"},
+          {"X-Frame-Options", "DENY"},
+          {"Referrer-Policy", "no-referrer"}};
 }
 
 }  // namespace
@@ -120,27 +171,34 @@ void send_error(httplib::Response& res, int status, const std::string& message) 
 DashboardServer::DashboardServer(const DashboardConfig& config, const std::string& database,
                                  LiveQueue live, Logger logger)
     : config_(config), live_(std::move(live)), logger_(std::move(logger)) {
-  if (!is_loopback_address(config_.address) && config_.token.empty())
-    throw StartupError("dashboard: a token is required to serve on " + config_.address);
+  if (!config_.token.empty() && config_.token.size() < DashboardConfig::kMinTokenLength)
+    throw StartupError("dashboard: the token is shorter than " +
+                       std::to_string(DashboardConfig::kMinTokenLength) + " characters");
+  if (!is_loopback_address(config_.address) && config_.token.empty()) {
+    config_.token = generated_token();
+    logger_->info("dashboard: serving {} with a generated token (see the printed URL)",
+                  config_.address);
+  }
   try {
     view_ = std::make_unique<RunView>(database);
   } catch (const std::exception& e) {
     throw StartupError("dashboard: cannot open " + database + ": " + e.what());
   }
-  server_ = std::make_unique<httplib::Server>();
-  const int threads = config_.threads;
-  server_->new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
-  server_->set_keep_alive_timeout(1);
-  // The dashboard only answers GETs: a request body of any size is refused (413) unread.
-  server_->set_payload_max_length(0);
-  add_routes();
-  port_ = config_.port == 0
-              ? server_->bind_to_any_port(config_.address)
-              : (server_->bind_to_port(config_.address, config_.port) ? config_.port : -1);
-  if (port_ <= 0)
-    throw StartupError("dashboard: cannot listen on " + config_.address + ":" +
-                       std::to_string(config_.port) + " (address in use or not on this host)");
-  listener_ = std::thread([this] { server_->listen_after_bind(); });
+  HttpLimits limits;
+  limits.max_connections =
+      connection_budget(static_cast<std::size_t>(config_.max_connections), logger_);
+  limits.max_connections_per_client = std::min(
+      limits.max_connections, static_cast<std::size_t>(config_.max_connections_per_client));
+  limits.max_event_streams =
+      std::min(limits.max_connections - 1, static_cast<std::size_t>(config_.max_event_streams));
+  limits.request_timeout =
+      std::chrono::milliseconds(static_cast<long>(config_.request_timeout_s * 1000));
+  limits.threads = config_.threads;
+  server_ = std::make_unique<HttpServer>(
+      config_.address, config_.port, limits,
+      [this](const HttpRequest& request) { return answer(request); }, browser_protections(),
+      logger_);
+  port_ = server_->port();
   publisher_ = std::thread([this] { publish_loop(); });
 }
 
@@ -162,11 +220,17 @@ void DashboardServer::poke() {
 
 void DashboardServer::stop() {
   if (stopping_.exchange(true)) return;
-  events_.close();
   poke();
   if (publisher_.joinable()) publisher_.join();
   server_->stop();
-  if (listener_.joinable()) listener_.join();
+  const HttpCounters c = server_->counters();
+  if (c.refused_busy + c.refused_streams + c.refused_requests + c.timed_out + c.descriptor_waits >
+      0)
+    logger_->info(
+        "dashboard: {} connections; refused {} when busy, {} live pages over the bound, {} bad "
+        "or oversized requests; {} timed out; {} accept pauses for file descriptors",
+        c.connections, c.refused_busy, c.refused_streams, c.refused_requests, c.timed_out,
+        c.descriptor_waits);
 }
 
 bool DashboardServer::authorised(const std::string& token_param,
@@ -182,7 +246,7 @@ void DashboardServer::publish_loop() {
   const auto period = milliseconds(static_cast<long>(config_.update_period_s * 1000));
   while (!stopping_) {
     try {
-      if (listeners_ > 0) publish_summary();
+      if (server_->open_event_streams() > 0) publish_summary();
     } catch (const std::exception& e) {
       logger_->warn("dashboard: summary not updated: {}", e.what());
     }
@@ -192,128 +256,99 @@ void DashboardServer::publish_loop() {
   }
 }
 
+// From the publisher and from a page opening: one at a time, so that pages get the summaries in
+// the order they were taken.
 void DashboardServer::publish_summary() {
+  std::lock_guard<std::mutex> publishing(publish_mutex_);
   const auto live = live_ ? live_() : std::nullopt;
   std::string summary;
   {
     std::lock_guard<std::mutex> lock(view_mutex_);
     summary = json_text(view_->summary(live));
   }
-  events_.publish(std::move(summary));
+  if (events_.publish(summary)) server_->broadcast(event_text(events_.latest()));
 }
 
-void DashboardServer::add_routes() {
-  httplib::Server& s = *server_;
-  // On every answer, errors included: scripts only from the page's own origin, no framing (the
-  // dashboard cannot be clicked through from another page), types as sent, no referrer (the
-  // token travels in the URL).
-  s.set_post_routing_handler([](const httplib::Request&, httplib::Response& res) {
-    res.set_header("Content-Security-Policy",
-                   "default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; "
-                   "img-src 'self' data:; object-src 'none'; base-uri 'none'; "
-                   "form-action 'self'; frame-ancestors 'none'");
-    res.set_header("X-Content-Type-Options", "nosniff");
-    res.set_header("X-Frame-Options", "DENY");
-    res.set_header("Referrer-Policy", "no-referrer");
-  });
-  s.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
-    // Without a token the dashboard serves loopback only, and only under a loopback name: a
-    // page from elsewhere whose name re-resolves to 127.0.0.1 (DNS rebinding) is refused.
-    if (config_.token.empty() && !is_loopback_host(req.get_header_value("Host"))) {
-      send_error(res, 403, "this dashboard answers to localhost, 127.0.0.1 or [::1] only");
-      return httplib::Server::HandlerResponse::Handled;
-    }
-    if (authorised(req.get_param_value("token"), req.get_header_value("Authorization")))
-      return httplib::Server::HandlerResponse::Unhandled;
-    send_error(res, 401, "this dashboard needs its token: open it with ?token=...");
-    return httplib::Server::HandlerResponse::Handled;
-  });
-  for (const auto& [path, content] : page_assets()) {
-    const std::string type = content_type_of(path);
-    const std::string* body = &content;
-    auto handler = [body, type](const httplib::Request&, httplib::Response& res) {
-      res.set_content(*body, type.c_str());
-    };
-    s.Get(path == "/dashboard.html" ? "/" : path, handler);
+std::string DashboardServer::event_text(const EventHub::Event& event) {
+  return "id: " + std::to_string(event.id) + "\nevent: summary\ndata: " + event.data + "\n\n";
+}
+
+HttpResponse DashboardServer::answer(const HttpRequest& req) {
+  // Without a token the dashboard serves loopback only, and only under a loopback name: a
+  // page from elsewhere whose name re-resolves to 127.0.0.1 (DNS rebinding) is refused.
+  if (config_.token.empty() && !is_loopback_host(req.host))
+    return error_answer(403, "this dashboard answers to localhost, 127.0.0.1 or [::1] only");
+  if (!authorised(req.param("token"), req.authorization))
+    return error_answer(401, "this dashboard needs its token: open it with ?token=...");
+  if (req.method != "GET" && req.method != "HEAD")
+    return error_answer(405, "this dashboard only answers GET");
+  const std::string path = req.path == "/" ? "/dashboard.html" : req.path;
+  for (const auto& [asset, content] : page_assets())
+    if (asset == path) return {200, content_type_of(asset), content, {}, false};
+  if (path == "/api/events") return open_events();
+  try {
+    std::lock_guard<std::mutex> lock(view_mutex_);  // one database connection for all threads
+    return data_answer(path, req);
+  } catch (const std::exception& e) {
+    return error_answer(500, e.what());
   }
-  // Every data handler reads through the one connection, and never lets an exception out.
-  auto guarded = [this](auto body) {
-    return [this, body](const httplib::Request& req, httplib::Response& res) {
-      try {
-        std::lock_guard<std::mutex> lock(view_mutex_);
-        body(req, res);
-      } catch (const std::exception& e) {
-        send_error(res, 500, e.what());
-      }
-    };
-  };
-  s.Get("/api/summary", guarded([this](const httplib::Request&, httplib::Response& res) {
-          send_json(res, view_->summary(live_ ? live_() : std::nullopt));
-        }));
-  s.Get("/api/keyframes", guarded([this](const httplib::Request& req, httplib::Response& res) {
-          const std::string robot = req.get_param_value("robot");
-          if (robot.empty()) return send_error(res, 400, "robot=ROBOT is required");
-          const std::size_t limit =
-              size_param(req, "limit", std::size_t(config_.thumbnails_per_robot), 1000);
-          nlohmann::json list = nlohmann::json::array();
-          for (const KeyframeCard& card : view_->keyframes(robot, std::max<std::size_t>(limit, 1)))
-            list.push_back(card_json(card));
-          send_json(res, {{"robot_id", robot}, {"keyframes", list}});
-        }));
-  s.Get("/api/image", guarded([this](const httplib::Request& req, httplib::Response& res) {
-          KeyframeKey key{req.get_param_value("robot"), 0};
-          try {
-            key.sequence = std::stoull(req.get_param_value("sequence"));
-          } catch (const std::exception&) {
-            return send_error(res, 400, "sequence=N is required");
-          }
-          const auto jpeg = view_->jpeg(key);
-          if (!jpeg) return send_error(res, 404, "no keyframe " + to_string(key));
-          res.set_header("Cache-Control", "max-age=86400");  // stored keyframes never change
-          res.set_content(reinterpret_cast<const char*>(jpeg->data()), jpeg->size(), "image/jpeg");
-        }));
-  s.Get("/api/search", guarded([this](const httplib::Request& req, httplib::Response& res) {
-          const std::string query = req.get_param_value("q");
-          if (query.empty()) return send_error(res, 400, "q=WORD is required");
-          if (!is_utf8(query)) return send_error(res, 400, "q= is not UTF-8 text");
-          std::vector<StoredWord> words;
-          try {
-            words = view_->search(query, size_param(req, "limit", 50, 500));
-          } catch (const std::exception&) {
-            return send_error(res, 400, "not a valid search (FTS5 syntax): " + query);
-          }
-          nlohmann::json results = nlohmann::json::array();
-          for (const StoredWord& w : words) results.push_back(word_json(w));
-          send_json(res, {{"query", query}, {"results", results}});
-        }));
-  s.Get("/api/map", guarded([this](const httplib::Request&, httplib::Response& res) {
-          send_json(res, view_->map());
-        }));
-  s.Get("/api/map.svg", guarded([this](const httplib::Request&, httplib::Response& res) {
-          res.set_content(map_svg(view_->map()), "image/svg+xml");
-        }));
-  s.Get("/api/bandwidth.svg", guarded([this](const httplib::Request&, httplib::Response& res) {
-          res.set_content(bandwidth_svg(view_->bandwidth_timeline()), "image/svg+xml");
-        }));
-  s.Get("/api/events", [this](const httplib::Request&, httplib::Response& res) {
-    res.set_header("Cache-Control", "no-cache");
-    auto last = std::make_shared<std::uint64_t>(0);
-    ++listeners_;
-    poke();  // a fresh summary for the new page
-    res.set_chunked_content_provider(
-        "text/event-stream",
-        [this, last](std::size_t, httplib::DataSink& sink) {
-          const auto event = events_.next(*last, milliseconds(15000));
-          if (events_.closed()) return false;
-          // A comment line keeps idle connections (and proxies) open.
-          const std::string text = event ? "id: " + std::to_string(event->id) +
-                                               "\nevent: summary\ndata: " + event->data + "\n\n"
-                                         : std::string(": idle\n\n");
-          if (event) *last = event->id;
-          return sink.write(text.data(), text.size());
-        },
-        [this](bool) { --listeners_; });
-  });
+}
+
+// A new page starts with a fresh summary; later ones come by broadcast.
+HttpResponse DashboardServer::open_events() {
+  publish_summary();
+  HttpResponse res{200, "text/event-stream", event_text(events_.latest()), {}, true};
+  res.headers.push_back({"Cache-Control", "no-cache"});
+  return res;
+}
+
+HttpResponse DashboardServer::data_answer(const std::string& path, const HttpRequest& req) {
+  if (path == "/api/summary") return json_answer(view_->summary(live_ ? live_() : std::nullopt));
+  if (path == "/api/keyframes") {
+    const std::string robot = req.param("robot");
+    if (robot.empty()) return error_answer(400, "robot=ROBOT is required");
+    const std::size_t limit =
+        size_param(req, "limit", std::size_t(config_.thumbnails_per_robot), 1000);
+    nlohmann::json list = nlohmann::json::array();
+    for (const KeyframeCard& card : view_->keyframes(robot, std::max<std::size_t>(limit, 1)))
+      list.push_back(card_json(card));
+    return json_answer({{"robot_id", robot}, {"keyframes", list}});
+  }
+  if (path == "/api/image") {
+    KeyframeKey key{req.param("robot"), 0};
+    try {
+      key.sequence = std::stoull(req.param("sequence"));
+    } catch (const std::exception&) {
+      return error_answer(400, "sequence=N is required");
+    }
+    const auto jpeg = view_->jpeg(key);
+    if (!jpeg) return error_answer(404, "no keyframe " + to_string(key));
+    // Stored keyframes never change.
+    return {200,
+            "image/jpeg",
+            std::string(jpeg->begin(), jpeg->end()),
+            {{"Cache-Control", "max-age=86400"}},
+            false};
+  }
+  if (path == "/api/search") {
+    const std::string query = req.param("q");
+    if (query.empty()) return error_answer(400, "q=WORD is required");
+    if (!is_utf8(query)) return error_answer(400, "q= is not UTF-8 text");
+    std::vector<StoredWord> words;
+    try {
+      words = view_->search(query, size_param(req, "limit", 50, 500));
+    } catch (const std::exception&) {
+      return error_answer(400, "not a valid search (FTS5 syntax): " + query);
+    }
+    nlohmann::json results = nlohmann::json::array();
+    for (const StoredWord& w : words) results.push_back(word_json(w));
+    return json_answer({{"query", query}, {"results", results}});
+  }
+  if (path == "/api/map") return json_answer(view_->map());
+  if (path == "/api/map.svg") return {200, "image/svg+xml", map_svg(view_->map()), {}, false};
+  if (path == "/api/bandwidth.svg")
+    return {200, "image/svg+xml", bandwidth_svg(view_->bandwidth_timeline()), {}, false};
+  return error_answer(404, "no such page: " + path);
 }
 
 }  // namespace keyfleet::station::web

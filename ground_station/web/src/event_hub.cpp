@@ -20,6 +20,11 @@ std::optional<EventHub::Event> EventHub::next(std::uint64_t after_id,
   return latest_;
 }
 
+EventHub::Event EventHub::latest() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return latest_;
+}
+
 void EventHub::close() {
   {
     std::lock_guard<std::mutex> lock(mutex_);

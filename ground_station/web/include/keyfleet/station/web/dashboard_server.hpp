@@ -13,13 +13,12 @@
 #include "keyfleet/station/analysis_pool.hpp"
 #include "keyfleet/station/web/event_hub.hpp"
 
-namespace httplib {
-class Server;
-}
-
 namespace keyfleet::station::web {
 
 class RunView;
+class HttpServer;
+struct HttpRequest;
+struct HttpResponse;
 
 // The running station's analysis queue, asked from the server's threads (AnalysisPool's
 // counters are thread-safe); empty for a run no station is analysing.
@@ -34,10 +33,16 @@ using LiveQueue = std::function<std::optional<AnalysisPool::Counters>()>;
 //   GET /api/search         ?q=WORD: FTS5 word search (400 on bad syntax)
 //   GET /api/map, /api/map.svg, /api/bandwidth.svg
 //   GET /api/events         text/event-stream of "summary" events
-// With a token configured every request must carry it (?token= or "Authorization: Bearer").
+// With a token configured every request must carry it (?token= or "Authorization: Bearer");
+// off loopback one is generated when the config gives none. Clients are bounded (connections in
+// all and per address, live pages, request head size and time: DashboardConfig), so that no
+// client can take the file descriptors, threads or memory the station needs; stop() never
+// waits on a client.
 class DashboardServer {
  public:
   // Opens the database read-only and binds; throws StartupError naming the address or file.
+  // Raises the process's soft open-file limit to its hard one and keeps the connections within
+  // what the limit leaves beside the station's own needs.
   DashboardServer(const DashboardConfig& config, const std::string& database, LiveQueue live,
                   Logger logger);
   ~DashboardServer();  // stops
@@ -52,7 +57,10 @@ class DashboardServer {
   void stop();
 
  private:
-  void add_routes();
+  HttpResponse answer(const HttpRequest& request);
+  HttpResponse open_events();
+  HttpResponse data_answer(const std::string& path, const HttpRequest& request);
+  static std::string event_text(const EventHub::Event& event);
   void publish_loop();
   void publish_summary();
   bool authorised(const std::string& token_param, const std::string& authorization) const;
@@ -61,16 +69,16 @@ class DashboardServer {
   LiveQueue live_;
   Logger logger_;
   std::unique_ptr<RunView> view_;
-  std::mutex view_mutex_;  // one database connection for every handler thread
-  std::unique_ptr<httplib::Server> server_;
-  EventHub events_;
+  std::mutex view_mutex_;
+  std::mutex publish_mutex_;  // one database connection for every handler thread
+  EventHub events_;           // the latest summary, numbered
+  std::unique_ptr<HttpServer> server_;
   int port_ = 0;
-  std::thread listener_, publisher_;
+  std::thread publisher_;
   std::mutex poke_mutex_;
   std::condition_variable poked_;
   bool poke_ = false;
   std::atomic<bool> stopping_{false};
-  std::atomic<int> listeners_{0};  // open event streams
 };
 
 }  // namespace keyfleet::station::web

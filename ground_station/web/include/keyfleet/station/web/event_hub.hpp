@@ -22,6 +22,8 @@ class EventHub {
   // The latest event when newer than `after_id`, else waits up to `timeout` for one. nullopt on
   // timeout or once closed.
   std::optional<Event> next(std::uint64_t after_id, std::chrono::milliseconds timeout);
+  // The latest event (id 0 before the first).
+  Event latest() const;
   // Wakes every reader and refuses to wait from then on (the server is stopping).
   void close();
   bool closed() const;
