@@ -10,7 +10,7 @@ std::unique_ptr<PlaceRecognizer> make_configured_place_recognizer(
   auto vocabulary = std::make_shared<const OrbVocabulary>(OrbVocabulary::load(
       vision::locate_model(config.vocabulary, "place recognition: vocabulary")));
   const int dimensions =
-      config.retrieval == PlaceRetrieval::kBow
+      !retrieval_mode(config.retrieval).ranks_by_descriptor()
           ? 0
           : vision::read_place_describer_info(
                 vision::locate_model(config.descriptor, "place recognition: descriptor model"))
@@ -21,7 +21,7 @@ std::unique_ptr<PlaceRecognizer> make_configured_place_recognizer(
 
 std::unique_ptr<vision::PlaceDescriber> make_configured_place_describer(
     const PlaceRecognitionConfig& config) {
-  if (!config.enabled || config.retrieval == PlaceRetrieval::kBow) return nullptr;
+  if (!config.enabled || !retrieval_mode(config.retrieval).ranks_by_descriptor()) return nullptr;
   return std::make_unique<vision::DnnPlaceDescriber>(
       vision::locate_model(config.descriptor, "place recognition: descriptor model"));
 }

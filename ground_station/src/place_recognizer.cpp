@@ -18,26 +18,14 @@ PlaceFilter not_a_recent_neighbour(const KeyframeKey& query, std::int64_t captur
   };
 }
 
-std::vector<std::uint32_t> fuse_ranks(const std::vector<std::uint32_t>& first,
-                                      const std::vector<std::uint32_t>& second) {
-  std::map<std::uint32_t, double> score;
-  for (const auto* list : {&first, &second})
-    for (std::size_t r = 0; r < list->size(); ++r)
-      score[(*list)[r]] += 1.0 / (kFusionRankOffset + double(r + 1));
-  std::vector<std::pair<std::uint32_t, double>> ranked(score.begin(), score.end());
-  std::stable_sort(ranked.begin(), ranked.end(),
-                   [](const auto& a, const auto& b) { return a.second > b.second; });
-  std::vector<std::uint32_t> out;
-  out.reserve(ranked.size());
-  for (const auto& [entry, s] : ranked) out.push_back(entry);
-  return out;
-}
-
 VerifiedPlaceRecognizer::VerifiedPlaceRecognizer(std::shared_ptr<const OrbVocabulary> vocabulary,
                                                  std::unique_ptr<MatchVerifier> verifier,
                                                  const PlaceRecognitionConfig& config,
                                                  int descriptor_dimensions)
-    : vocabulary_(std::move(vocabulary)), verifier_(std::move(verifier)), config_(config) {
+    : vocabulary_(std::move(vocabulary)),
+      verifier_(std::move(verifier)),
+      config_(config),
+      mode_(retrieval_mode(config.retrieval)) {
   if (uses_descriptors()) descriptors_.emplace(descriptor_dimensions);
 }
 
@@ -48,12 +36,10 @@ VerifiedPlaceRecognizer::Ranked VerifiedPlaceRecognizer::rank(const PlaceView& v
   const auto accept = [&](std::uint32_t entry) {
     return !filter || filter(entries_[entry].key, entries_[entry].capture_time_ns);
   };
-  const bool fusion = config_.retrieval == PlaceRetrieval::kFusion;
-  const std::size_t depth =
-      fusion ? std::max(max_results, static_cast<std::size_t>(config_.fusion_depth)) : max_results;
+  const std::size_t depth = mode_.depth(max_results, config_);
   std::map<std::uint32_t, double> bow_scores, similarities;
   std::vector<std::uint32_t> by_bow, by_descriptor;
-  if (config_.retrieval != PlaceRetrieval::kCnn && !bow.empty()) {
+  if (mode_.ranks_by_bow() && !bow.empty()) {
     for (const BowMatch& m : database_.query(bow, depth, accept)) {
       by_bow.push_back(m.entry);
       bow_scores[m.entry] = m.score;
@@ -71,11 +57,7 @@ VerifiedPlaceRecognizer::Ranked VerifiedPlaceRecognizer::rank(const PlaceView& v
     }
   }
   Ranked ranked;
-  switch (config_.retrieval) {
-    case PlaceRetrieval::kBow: ranked.entries = by_bow; break;
-    case PlaceRetrieval::kCnn: ranked.entries = by_descriptor; break;
-    case PlaceRetrieval::kFusion: ranked.entries = fuse_ranks(by_bow, by_descriptor); break;
-  }
+  ranked.entries = mode_.combine(by_bow, by_descriptor);
   if (ranked.entries.size() > max_results) ranked.entries.resize(max_results);
   for (std::uint32_t e : ranked.entries) {
     ranked.bow_scores.push_back(bow_scores.count(e) ? bow_scores[e] : 0.0);
@@ -133,9 +115,8 @@ PlaceOutcome VerifiedPlaceRecognizer::recognise(const PlaceView& view,
 std::vector<KeyframeKey> VerifiedPlaceRecognizer::retrieve(const PlaceView& view,
                                                            std::size_t max_results,
                                                            const PlaceFilter& filter) const {
-  // Without verification, cnn retrieval needs no bag of words.
-  const bool ranks_by_bow = config_.retrieval != PlaceRetrieval::kCnn;
-  const BowVector bow = !ranks_by_bow || view.features.descriptors.empty()
+  // Without verification, a mode that does not rank by it needs no bag of words.
+  const BowVector bow = !mode_.ranks_by_bow() || view.features.descriptors.empty()
                             ? BowVector{}
                             : vocabulary_->transform(view.features.descriptors);
   std::shared_lock lock(mutex_);

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <numeric>
 #include <random>
+#include <sstream>
 
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/scenario_truth.hpp"
@@ -115,9 +116,10 @@ TEST(PlaceDescriberModel, SamePlaceViewsOfAnotherDayScoreCloserThanOtherPlaces) 
     other_sum += other;
   }
   ASSERT_GE(pairs, 5);
-  std::printf("%d queries: mean best cosine %.3f to their place, %.3f to places 20 m+ away; "
-              "%d closer to their own place\n",
-              pairs, same_sum / pairs, other_sum / pairs, closer);
+  std::printf(
+      "%d queries: mean best cosine %.3f to their place, %.3f to places 20 m+ away; "
+      "%d closer to their own place\n",
+      pairs, same_sum / pairs, other_sum / pairs, closer);
   // The margin stated: 0.05 on the means, and at least 70 % of the queries closer to their own
   // place than to any other (the shipped model's figures are printed above).
   EXPECT_GT(same_sum / pairs, other_sum / pairs + 0.05);
@@ -176,6 +178,35 @@ TEST(PlaceFusion, ReciprocalRanksFavourWhatBothListsRankHigh) {
   EXPECT_EQ(fused[2], 3u);
   EXPECT_EQ(fused[3], 5u);
   EXPECT_EQ(station::fuse_ranks({}, {4, 2}), (std::vector<std::uint32_t>{4, 2}));
+}
+
+TEST(PlaceRetrievalModes, EveryConfiguredModeHasItsObjectAndSaysWhatItNeeds) {
+  // Every name the config accepts maps to a mode object (a new mode cannot miss its class).
+  std::string choices = place_retrieval_choices();
+  for (char& c : choices)
+    if (c == '|') c = ' ';
+  std::istringstream names(choices);
+  int modes = 0;
+  for (std::string name; names >> name; ++modes) {
+    const auto retrieval = place_retrieval(name);
+    ASSERT_TRUE(retrieval.has_value()) << name;
+    const station::RetrievalMode& mode = station::retrieval_mode(*retrieval);
+    EXPECT_TRUE(mode.ranks_by_bow() || mode.ranks_by_descriptor()) << name;
+  }
+  EXPECT_EQ(modes, 3);
+  const auto& bow = station::retrieval_mode(PlaceRetrieval::kBow);
+  const auto& cnn = station::retrieval_mode(PlaceRetrieval::kCnn);
+  const auto& fusion = station::retrieval_mode(PlaceRetrieval::kFusion);
+  EXPECT_FALSE(bow.ranks_by_descriptor());
+  EXPECT_FALSE(cnn.ranks_by_bow());
+  EXPECT_TRUE(fusion.ranks_by_bow() && fusion.ranks_by_descriptor());
+  PlaceRecognitionConfig config;
+  config.fusion_depth = 20;
+  EXPECT_EQ(bow.depth(4, config), 4u);
+  EXPECT_EQ(fusion.depth(4, config), 20u);
+  EXPECT_EQ(bow.combine({1, 2}, {3}), (std::vector<std::uint32_t>{1, 2}));
+  EXPECT_EQ(cnn.combine({1, 2}, {3}), (std::vector<std::uint32_t>{3}));
+  EXPECT_EQ(fusion.combine({3, 7, 9}, {7, 9, 5}), station::fuse_ranks({3, 7, 9}, {7, 9, 5}));
 }
 
 std::unique_ptr<station::VerifiedPlaceRecognizer> cnn_recognizer(int dimensions) {

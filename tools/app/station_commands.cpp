@@ -158,7 +158,7 @@ void locate(const LocateOptions& o) {
   LoadedMap loaded(dir);
   auto places = station::make_configured_place_recognizer(settings);
   station::PlaceIndexRebuild index = station::rebuild_place_index(loaded.analysis, *places);
-  if (settings.retrieval != PlaceRetrieval::kBow && index.indexed > 0 &&
+  if (station::retrieval_mode(settings.retrieval).ranks_by_descriptor() && index.indexed > 0 &&
       index.without_descriptor == index.indexed) {
     std::cout << "no keyframe of this run has a stored place descriptor (analysed with bow "
                  "retrieval): retrieving by the bag of words\n";
@@ -175,7 +175,8 @@ void locate(const LocateOptions& o) {
   std::cout << "retrieval " << to_string(settings.retrieval) << ": checked "
             << outcome.checked.size() << " candidate(s) of " << index.indexed
             << " indexed keyframe(s)";
-  if (settings.retrieval != PlaceRetrieval::kBow && index.without_descriptor > 0)
+  if (station::retrieval_mode(settings.retrieval).ranks_by_descriptor() &&
+      index.without_descriptor > 0)
     std::cout << " (" << index.without_descriptor << " without a stored descriptor)";
   std::cout << "\n";
   for (const auto& c : outcome.checked) {

@@ -308,7 +308,7 @@ EvalResults run_eval(const EvalConfig& config, const std::string& scenario_dir, 
     const auto retrieval = place_retrieval(name);
     if (!retrieval) throw StartupError("place_retrievals: unknown mode " + name);
     ctx.retrievals.push_back(*retrieval);
-    if (*retrieval != PlaceRetrieval::kBow && ctx.descriptor_model.empty()) {
+    if (station::retrieval_mode(*retrieval).ranks_by_descriptor() && ctx.descriptor_model.empty()) {
       ctx.descriptor_model = vision::locate_model(config.place_descriptor, "place descriptor");
       ctx.descriptor_dimensions =
           vision::read_place_describer_info(ctx.descriptor_model).dimensions;

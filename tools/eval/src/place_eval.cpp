@@ -21,6 +21,7 @@
 #include "keyfleet/station/analysis_setup.hpp"
 #include "keyfleet/station/place_recognizer.hpp"
 #include "keyfleet/station/places/orb_extractor.hpp"
+#include "keyfleet/vision/model_files.hpp"
 #include "keyfleet/vision/place_describer.hpp"
 
 namespace keyfleet::eval {
@@ -46,9 +47,9 @@ class Describer {
       : cost_(cost) {
     orb_.features = settings.places.orb_features;
     orb_.min_width = orb_min_width;
-    PlaceRecognitionConfig with_descriptor = settings.places;
-    with_descriptor.retrieval = PlaceRetrieval::kCnn;
-    describer_ = station::make_configured_place_describer(with_descriptor);
+    // Every view is described, whichever modes are compared.
+    describer_ = std::make_unique<vision::DnnPlaceDescriber>(
+        vision::locate_model(settings.places.descriptor, "place recognition: descriptor model"));
   }
   station::PlaceView view(const cv::Mat& bgr) {
     station::PlaceView v;

@@ -12,6 +12,7 @@
 #include "keyfleet/station/places/bow_database.hpp"
 #include "keyfleet/station/places/descriptor_index.hpp"
 #include "keyfleet/station/places/orb_vocabulary.hpp"
+#include "keyfleet/station/places/retrieval_modes.hpp"
 
 namespace keyfleet::station {
 
@@ -49,16 +50,10 @@ class PlaceRecognizer {
 PlaceFilter not_a_recent_neighbour(const KeyframeKey& query, std::int64_t capture_time_ns,
                                    double exclusion_s);
 
-// Reciprocal-rank fusion of two ranked lists of entries: score(e) = sum over the lists holding
-// e of 1 / (kFusionRankOffset + rank), rank counted from 1; best first, ties to the lower entry.
-inline constexpr double kFusionRankOffset = 2.0;
-std::vector<std::uint32_t> fuse_ranks(const std::vector<std::uint32_t>& first,
-                                      const std::vector<std::uint32_t>& second);
-
-// Candidates by retrieval (config.retrieval: ORB bag of words over an inverted index, exact
-// cosine search over holistic descriptors, or both fused by rank), then the direct index for
-// matching and a geometric verifier (VFC or RANSAC) to accept them: the top `candidates` are
-// verified and the one with most inliers is kept when it has more than min_inliers at
+// Candidates by retrieval (config.retrieval's RetrievalMode: ORB bag of words over an inverted
+// index, exact cosine search over holistic descriptors, or both fused by rank), then the direct
+// index for matching and a geometric verifier (VFC or RANSAC) to accept them: the top `candidates`
+// are verified and the one with most inliers is kept when it has more than min_inliers at
 // min_inlier_ratio (Ma and Zhao, IEEE Access 2017; the CNN feature of the second seed).
 class VerifiedPlaceRecognizer final : public PlaceRecognizer {
  public:
@@ -86,7 +81,7 @@ class VerifiedPlaceRecognizer final : public PlaceRecognizer {
     std::vector<std::uint32_t> entries;
     std::vector<double> bow_scores, similarities;  // by position in entries; 0 where unknown
   };
-  bool uses_descriptors() const { return config_.retrieval != PlaceRetrieval::kBow; }
+  bool uses_descriptors() const { return mode_.ranks_by_descriptor(); }
   Ranked rank(const PlaceView& view, const BowVector& bow, std::size_t max_results,
               const PlaceFilter& filter) const;
   PlaceMatch verify(const OrbFeatures& query, const FeatureVector& query_direct,
@@ -95,6 +90,7 @@ class VerifiedPlaceRecognizer final : public PlaceRecognizer {
   std::shared_ptr<const OrbVocabulary> vocabulary_;
   std::unique_ptr<MatchVerifier> verifier_;
   PlaceRecognitionConfig config_;
+  const RetrievalMode& mode_;
   mutable std::shared_mutex mutex_;
   BowDatabase database_;
   std::optional<DescriptorIndex> descriptors_;
