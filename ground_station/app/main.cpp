@@ -71,7 +71,8 @@ int run(const ProcessOptions& options) {
       [&attempts](const station::KeyframeKey& key) { attempts.started(key); });
   station::StationAnalysis analysis(store, analysis_store, map, pool, logger);
   analysis.skip_abandoned(attempts, analysis_config.max_attempts);
-  analysis.restore(places.get(), analysis_config.places.retrieval != PlaceRetrieval::kBow);
+  analysis.restore(places.get(),
+                   station::retrieval_mode(analysis_config.places.retrieval).ranks_by_descriptor());
 
   // The dashboard reads the database on its own threads; the pool outlives it.
   std::unique_ptr<station::web::DashboardServer> dashboard;
