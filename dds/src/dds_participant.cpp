@@ -161,24 +161,25 @@ fdds::DomainParticipantQos participant_qos(const DdsSettings& s, const std::stri
 
 std::vector<std::pair<std::string, std::string>> security_properties(const DdsSettings& settings,
                                                                      const std::string& identity) {
-  const fs::path dir = settings.security.directory;
-  const SecurityFiles files = security_files(dir.string(), identity);
-  for (const auto& path :
-       {files.ca, files.governance, files.certificate, files.private_key, files.permissions})
-    if (!fs::is_regular_file(path))
-      throw StartupError("dds.security: no file " + path + " (made by `keyfleet security init " +
-                         "--out " + dir.string() + "` for identity '" + identity + "')");
+  require_security_credentials(settings.security, identity);
+  const SecurityFiles files = security_files(settings.security.directory, identity);
   const std::string auth = "dds.sec.auth.builtin.PKI-DH.";
   const std::string access = "dds.sec.access.builtin.Access-Permissions.";
-  return {{"dds.sec.auth.plugin", "builtin.PKI-DH"},
-          {auth + "identity_ca", "file://" + files.ca},
-          {auth + "identity_certificate", "file://" + files.certificate},
-          {auth + "private_key", "file://" + files.private_key},
-          {"dds.sec.access.plugin", "builtin.Access-Permissions"},
-          {access + "permissions_ca", "file://" + files.ca},
-          {access + "governance", "file://" + files.governance},
-          {access + "permissions", "file://" + files.permissions},
-          {"dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC"}};
+  std::vector<std::pair<std::string, std::string>> properties{
+      {"dds.sec.auth.plugin", "builtin.PKI-DH"},
+      {auth + "identity_ca", "file://" + files.ca},
+      {auth + "identity_certificate", "file://" + files.certificate},
+      {auth + "private_key", "file://" + files.private_key},
+      {"dds.sec.access.plugin", "builtin.Access-Permissions"},
+      {access + "permissions_ca", "file://" + files.ca},
+      {access + "governance", "file://" + files.governance},
+      {access + "permissions", "file://" + files.permissions},
+      {"dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC"}};
+  // Withdrawn robots (`keyfleet security withdraw`): Fast DDS 2.9's PKI-DH checks each peer's
+  // certificate against this CRL in the handshake, so a withdrawn robot is never authenticated.
+  if (fs::is_regular_file(files.crl))
+    properties.emplace_back(auth + "identity_crl", "file://" + files.crl);
+  return properties;
 }
 
 Participant::Participant(const DdsSettings& settings, const std::string& name,

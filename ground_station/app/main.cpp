@@ -10,6 +10,7 @@
 #include "keyfleet/common/file_output.hpp"
 #include "keyfleet/common/process_tuning.hpp"
 #include "keyfleet/common/run_folder_lock.hpp"
+#include "keyfleet/common/security_files.hpp"
 #include "keyfleet/common/shutdown_signal.hpp"
 #include "keyfleet/dds/dds_transport.hpp"
 #include "keyfleet/station/analysis_exports.hpp"
@@ -28,6 +29,10 @@ namespace fs = std::filesystem;
 int run(const ProcessOptions& options) {
   StationConfig config = load_station_config(options.config_path);
   apply_dds_overrides(options, config.dds);
+  // Before anything is made: without usable credentials a secured station does not start.
+  require_security_credentials(config.dds.security, kStationIdentity);
+  std::optional<FleetRoster> roster;
+  if (config.dds.security.enabled) roster = read_fleet_roster(config.dds.security.directory);
   fs::create_directories(options.run_dir);
   const RunFolderLock run_folder(options.run_dir, "station.lock");
 
@@ -39,6 +44,17 @@ int run(const ProcessOptions& options) {
     if (!shown.dashboard.token.empty()) shown.dashboard.token = "(set, not shown)";
     logger->info("effective configuration:\n{}", to_yaml(shown));
   }
+  if (roster) {
+    logger->info("DDS-Security on: {} robot(s) on the fleet's roster, {} withdrawn",
+                 roster->robots.size(), roster->withdrawn.size());
+    for (const auto& id : config.limits.allowed_robots)
+      if (!roster->has(id))
+        logger->warn("limits.allowed_robots: '{}' has no identity in the fleet: it is refused", id);
+  } else {
+    logger->warn(
+        "DDS-Security is off (dds.security.enabled: false): anyone who reaches the network can "
+        "read the fleet's keyframes and send keyframes as any robot; the report says so");
+  }
 
   ShutdownSignal shutdown;
   DiskReserve report_space(fs::path(options.run_dir) / "report.reserve",
@@ -49,7 +65,7 @@ int run(const ProcessOptions& options) {
   station::MissionLog mission_log((fs::path(options.run_dir) / config.mission_log).string());
   // One admission for the link (which robots' topics are read) and the station (whose samples
   // are handled).
-  auto admission = std::make_shared<RobotAdmission>(config.limits, logger);
+  auto admission = std::make_shared<RobotAdmission>(config.limits, logger, roster);
   auto link = make_dds_station_link(config.dds, logger, admission);
   station::GroundStation station(config.limits, store, mission_log, *link, logger, admission);
 
@@ -148,6 +164,7 @@ int run(const ProcessOptions& options) {
   write_report("the bandwidth report", [&] {
     auto report = station::build_bandwidth_report(store.totals());
     report.refused = admission->refusals();
+    report.dds_security = config.dds.security.enabled;
     return station::write_bandwidth_report(report, options.run_dir);
   });
   write_report("the analysis exports", [&] {

@@ -136,14 +136,19 @@ std::string format_table(const BandwidthReport& report) {
     std::string ids;
     for (const auto& id : refused.ids) ids += (ids.empty() ? "" : ", ") + id;
     std::snprintf(line, sizeof line,
-                  "robots refused: %llu not allowed, %llu over max_robots, %llu malformed ids; "
-                  "%llu samples refused",
+                  "robots refused: %llu not allowed, %llu over max_robots, %llu malformed ids, "
+                  "%llu without an identity, %llu withdrawn; %llu samples refused",
                   static_cast<unsigned long long>(refused.not_allowed),
                   static_cast<unsigned long long>(refused.over_quota),
                   static_cast<unsigned long long>(refused.malformed),
+                  static_cast<unsigned long long>(refused.no_identity),
+                  static_cast<unsigned long long>(refused.withdrawn),
                   static_cast<unsigned long long>(refused.samples));
     out << line << " (" << ids << ")\n";
   }
+  if (!report.dds_security)
+    out << "DDS-Security: off (dds.security.enabled: false): keyframes crossed the network "
+           "unauthenticated and unencrypted\n";
   out << "received = serialized DDS samples stored by the station (first copies); stream-all = "
          "every camera frame sent as a JPEG keyframe sample; (est.) = extrapolated from sampled "
          "frames; lost = dropped by the agent's outbox bounds.\n";
@@ -180,7 +185,10 @@ std::string to_json(const BandwidthReport& report) {
   for (const auto& r : report.robots) doc["robots"].push_back(row_json(r));
   doc["fleet"] = row_json(report.fleet);
   const RobotRefusals& refused = report.refused;
-  doc["refused_robots"] = {{"not_allowed", refused.not_allowed},
+  doc["dds_security"] = report.dds_security;
+  doc["refused_robots"] = {{"no_identity", refused.no_identity},
+                           {"withdrawn", refused.withdrawn},
+                           {"not_allowed", refused.not_allowed},
                            {"over_quota", refused.over_quota},
                            {"malformed", refused.malformed},
                            {"samples", refused.samples},

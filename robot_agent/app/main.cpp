@@ -9,6 +9,7 @@
 #include "keyfleet/cli/process_options.hpp"
 #include "keyfleet/common/config_error.hpp"
 #include "keyfleet/common/process_tuning.hpp"
+#include "keyfleet/common/security_files.hpp"
 #include "keyfleet/dds/dds_transport.hpp"
 
 namespace {
@@ -23,6 +24,8 @@ int run(const ProcessOptions& options, const std::string& robot_id) {
       throw ConfigError("--robot-id: '" + robot_id + "' must match [A-Za-z0-9_-]{1,32}");
     config.robot_id = robot_id;
   }
+  // Before anything is made: without usable credentials a secured agent does not start.
+  require_security_credentials(config.dds.security, config.robot_id);
   if (config.source.kind == SourceConfig::Kind::kScenario && config.source.drone.empty())
     config.source.drone = config.robot_id;
   std::filesystem::create_directories(options.run_dir);
@@ -30,6 +33,10 @@ int run(const ProcessOptions& options, const std::string& robot_id) {
   Logger logger = make_logger("agent " + config.robot_id, config.log_level, options.log_file);
   route_fastdds_log(logger);
   logger->info("effective configuration:\n{}", to_yaml(config));
+  if (!config.dds.security.enabled)
+    logger->warn(
+        "DDS-Security is off (dds.security.enabled: false): anyone who reaches the network can "
+        "read this robot's keyframes and acknowledge them in the station's name");
 
   ShutdownSignal shutdown;
   auto source = agent::make_frame_source(config.source, logger);

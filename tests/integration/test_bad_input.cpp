@@ -9,6 +9,7 @@
 #include "keyfleet/common/sqlite.hpp"
 #include "keyfleet/common/text_region_blob.hpp"
 #include "keyfleet/dds/dds_transport.hpp"
+#include "keyfleet/mission/fleet_credentials.hpp"
 #include "support/fleet_fixture.hpp"
 
 namespace keyfleet::testing {
@@ -28,11 +29,18 @@ class BadInput : public FleetFixture {
  protected:
   // Runs robot_agent with `args`, returns (exit status, everything it printed).
   std::pair<mission::ExitStatus, std::string> run_agent(std::vector<std::string> args) {
-    args.insert(args.begin(), KEYFLEET_AGENT_BIN);
-    const auto log = run_dir_ / ("agent-" + std::to_string(++runs_) + ".log");
-    mission::ChildProcess agent("robot_agent", args, log.string());
-    const auto status = agent.wait_for(seconds(30));
-    EXPECT_TRUE(status.has_value()) << "robot_agent did not stop on bad input";
+    return run_binary(KEYFLEET_AGENT_BIN, std::move(args));
+  }
+  std::pair<mission::ExitStatus, std::string> run_station(std::vector<std::string> args) {
+    return run_binary(KEYFLEET_STATION_BIN, std::move(args));
+  }
+  std::pair<mission::ExitStatus, std::string> run_binary(const std::string& binary,
+                                                         std::vector<std::string> args) {
+    args.insert(args.begin(), binary);
+    const auto log = run_dir_ / ("process-" + std::to_string(++runs_) + ".log");
+    mission::ChildProcess process(binary, args, log.string());
+    const auto status = process.wait_for(seconds(30));
+    EXPECT_TRUE(status.has_value()) << binary << " did not stop on bad input";
     return {status.value_or(mission::ExitStatus{}), read_file(log)};
   }
   std::filesystem::path write_config(const std::string& name, const std::string& text) {
@@ -68,12 +76,78 @@ TEST_F(BadInput, BadValueSaysWhatIsAllowed) {
 
 TEST_F(BadInput, UnreadableImageFolderIsNamed) {
   const auto path =
-      write_config("folder.yaml", "source:\n  kind: folder\n  path: /nonexistent/frames\n");
+      write_config("folder.yaml",
+                   "source:\n  kind: folder\n  path: /nonexistent/frames\ndds:\n  security:\n"
+                   "    enabled: false\n");
   const auto [status, output] =
       run_agent({"--config", path.string(), "--run-dir", (run_dir_ / "a").string()});
   EXPECT_EQ(status.code, 1);
   EXPECT_NE(output.find("image folder '/nonexistent/frames' does not exist"), std::string::npos)
       << output;
+}
+
+// Secure by default: a standalone agent or station whose config says nothing of DDS-Security
+// runs with it, and without usable credentials refuses to start, naming what is missing and the
+// two ways out; nothing is made in its run folder.
+TEST_F(BadInput, AgentWithoutCredentialsRefusesToStart) {
+  const auto path = write_config("plain_agent.yaml", "robot_id: drone_0\n");
+  const auto run = run_dir_ / "agent-run";
+  const auto [status, output] = run_agent({"--config", path.string(), "--run-dir", run.string()});
+  EXPECT_EQ(status.code, 1) << output;
+  for (const std::string& expected : std::vector<std::string>{
+           "robot_agent: error: DDS-Security is on", (run_dir_ / "credentials").string(),
+           "does not exist", "keyfleet security init --out DIR", "DIR/hosts/drone_0",
+           "dds.security.enabled: false"})
+    EXPECT_NE(output.find(expected), std::string::npos) << expected << " in:\n" << output;
+  EXPECT_FALSE(std::filesystem::exists(run)) << "nothing is made before the refusal";
+}
+
+TEST_F(BadInput, StationWithoutCredentialsRefusesToStart) {
+  const auto path = write_config("plain_station.yaml", "report_period_s: 1\n");
+  const auto run = run_dir_ / "station-run";
+  const auto [status, output] = run_station({"--config", path.string(), "--run-dir", run.string()});
+  EXPECT_EQ(status.code, 1) << output;
+  for (const std::string& expected :
+       std::vector<std::string>{"ground_station: error: DDS-Security is on", "DIR/hosts/station",
+                                "dds.security.enabled: false"})
+    EXPECT_NE(output.find(expected), std::string::npos) << expected << " in:\n" << output;
+  EXPECT_FALSE(std::filesystem::exists(run));
+}
+
+TEST_F(BadInput, StationWhoseBundleLacksItsKeyNamesTheFile) {
+  mission::write_fleet_credentials({(run_dir_ / "fleet").string(), {"drone_0"}, 1}, null_logger());
+  std::filesystem::remove(run_dir_ / "fleet/hosts/station/identities/station.key.pem");
+  // A relative folder is taken from the config file's folder.
+  const auto path =
+      write_config("station.yaml", "dds:\n  security:\n    directory: fleet/hosts/station\n");
+  const auto [status, output] =
+      run_station({"--config", path.string(), "--run-dir", (run_dir_ / "s").string()});
+  EXPECT_EQ(status.code, 1) << output;
+  EXPECT_NE(output.find((run_dir_ / "fleet/hosts/station").string() +
+                        " lacks identities/station.key.pem (this host's private key"),
+            std::string::npos)
+      << output;
+}
+
+// Security off by the config's word: the station says so at start and in its report.
+TEST_F(BadInput, StationWithSecurityOffSaysSoAtStartAndInItsReport) {
+  auto station = start_station(station_config());  // the fixture's: dds.security.enabled false
+  ASSERT_TRUE(wait_until(
+      [&] {
+        return read_file(station_dir() / "station.log").find("station ready") != std::string::npos;
+      },
+      seconds(30)))
+      << read_file(station_dir() / "station.log");
+  station->signal(SIGTERM);
+  const auto status = station->wait_for(seconds(30));
+  ASSERT_TRUE(status && status->ok()) << read_file(station_dir() / "station.log");
+  EXPECT_NE(read_file(station_dir() / "station.log")
+                .find("DDS-Security is off (dds.security.enabled: false)"),
+            std::string::npos);
+  EXPECT_NE(read_file(station_dir() / "report.txt").find("DDS-Security: off"), std::string::npos)
+      << read_file(station_dir() / "report.txt");
+  EXPECT_NE(read_file(station_dir() / "report.json").find("\"dds_security\": false"),
+            std::string::npos);
 }
 
 // Hostile samples published over real DDS next to a well-behaved agent process.

@@ -23,10 +23,16 @@ class DdsSecurity : public FleetFixture {
     credentials_ = (run_dir_ / "security").string();
     mission::write_fleet_credentials({credentials_, {"drone_0", "drone_1"}}, null_logger());
   }
-  DdsSettings secured() const {
+  // A robot's settings with its host's bundle, as `keyfleet security init` wrote it.
+  DdsSettings secured(const std::string& robot_id) const {
     DdsSettings settings = dds();
-    settings.security = {true, credentials_};
+    settings.security = {true, mission::host_bundle(credentials_, robot_id)};
     return settings;
+  }
+  StationConfig secured_station() const {
+    StationConfig config = station_config();
+    config.dds.security = {true, mission::host_bundle(credentials_, kStationIdentity)};
+    return config;
   }
   Keyframe keyframe(const std::string& robot_id, std::uint64_t sequence) const {
     Keyframe k;
@@ -55,23 +61,22 @@ class DdsSecurity : public FleetFixture {
   std::string disguised(const std::string& real, const std::string& as) const {
     const auto dir = run_dir_ / ("disguised-" + real + "-as-" + as);
     std::filesystem::create_directories(dir / "identities");
+    const std::filesystem::path bundle = mission::host_bundle(credentials_, real);
     for (const char* file : {"ca.cert.pem", "governance.p7s"})
-      std::filesystem::copy_file(std::filesystem::path(credentials_) / file, dir / file);
+      std::filesystem::copy_file(bundle / file, dir / file);
     for (const char* suffix : {".cert.pem", ".key.pem", ".permissions.p7s"})
-      std::filesystem::copy_file(
-          std::filesystem::path(credentials_) / "identities" / (real + suffix),
-          dir / "identities" / (as + suffix));
+      std::filesystem::copy_file(bundle / "identities" / (real + suffix),
+                                 dir / "identities" / (as + suffix));
     return dir.string();
   }
   std::string credentials_;
 };
 
 TEST_F(DdsSecurity, SecuredRobotIsServedAndStrangersGetNothing) {
-  StationConfig config = station_config();
-  config.dds.security = {true, credentials_};
+  StationConfig config = secured_station();
   auto station = start_station(config);
 
-  auto robot = make_dds_agent_link(secured(), "drone_0", null_logger());
+  auto robot = make_dds_agent_link(secured("drone_0"), "drone_0", null_logger());
   auto stranger = make_dds_agent_link(dds(), "drone_1", null_logger());  // no credentials
   auto eavesdropper = make_dds_station_link(dds(), null_logger());       // no credentials
   ASSERT_TRUE(wait_until([&] { return robot->matched_stations() > 0; }, seconds(30)));
@@ -100,13 +105,12 @@ TEST_F(DdsSecurity, SecuredRobotIsServedAndStrangersGetNothing) {
 TEST_F(DdsSecurity, ParticipantCertifiedByAnotherCaIsNeverMatched) {
   const auto other = (run_dir_ / "other-ca").string();
   mission::write_fleet_credentials({other, {"drone_1"}}, null_logger());
-  StationConfig config = station_config();
-  config.dds.security = {true, credentials_};
+  StationConfig config = secured_station();
   auto station = start_station(config);
   DdsSettings impostor_settings = dds();
-  impostor_settings.security = {true, other};
+  impostor_settings.security = {true, mission::host_bundle(other, "drone_1")};
   auto impostor = make_dds_agent_link(impostor_settings, "drone_1", null_logger());
-  auto robot = make_dds_agent_link(secured(), "drone_0", null_logger());
+  auto robot = make_dds_agent_link(secured("drone_0"), "drone_0", null_logger());
   const auto ack = deliver(*robot, keyframe("drone_0", 0), seconds(30));
   ASSERT_TRUE(ack.has_value());
   impostor->publish(keyframe("drone_1", 0));
@@ -147,10 +151,9 @@ TEST_F(DdsSecurity, RobotCannotWriteOnAnotherRobotsTopic) {
 }
 
 TEST_F(DdsSecurity, KeyframeClaimingAnotherRobotIsRefused) {
-  StationConfig config = station_config();
-  config.dds.security = {true, credentials_};
+  StationConfig config = secured_station();
   auto station = start_station(config);
-  auto robot = make_dds_agent_link(secured(), "drone_1", null_logger());
+  auto robot = make_dds_agent_link(secured("drone_1"), "drone_1", null_logger());
   ASSERT_TRUE(wait_until([&] { return robot->matched_stations() > 0; }, seconds(30)));
 
   const auto ack = deliver(*robot, keyframe("drone_0", 7), seconds(20));

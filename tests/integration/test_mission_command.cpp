@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <fstream>
 #include <regex>
+#include <set>
 #include <sstream>
 
 #include "keyfleet/common/sqlite.hpp"
@@ -56,6 +57,29 @@ TEST_F(MissionCommand, TwoDroneMissionPrintsReportAndSucceeds) {
   const StationConfig station = load_station_config(
       (std::filesystem::path(run_folder[1].str()) / "config" / "station.yaml").string());
   EXPECT_EQ(station.limits.allowed_robots, (std::vector<std::string>{"drone_0", "drone_1"}));
+  // Each process got its host's bundle only: its own key, no other host's, not the CA's.
+  const std::filesystem::path run(run_folder[1].str());
+  const auto files_in = [](const std::filesystem::path& dir) {
+    std::set<std::string> files;
+    for (const auto& entry : std::filesystem::recursive_directory_iterator(dir))
+      if (entry.is_regular_file())
+        files.insert(std::filesystem::relative(entry.path(), dir).string());
+    return files;
+  };
+  for (const std::string id : {"drone_0", "drone_1"}) {
+    const AgentConfig agent = load_agent_config((run / "config" / (id + ".yaml")).string());
+    EXPECT_TRUE(agent.dds.security.enabled);
+    EXPECT_EQ(agent.dds.security.directory, (run / "security" / "hosts" / id).string());
+    EXPECT_EQ(files_in(agent.dds.security.directory),
+              (std::set<std::string>{
+                  "ca.cert.pem", "governance.p7s", "identities/" + id + ".cert.pem",
+                  "identities/" + id + ".key.pem", "identities/" + id + ".permissions.p7s"}));
+  }
+  EXPECT_EQ(station.dds.security.directory, (run / "security" / "hosts" / "station").string());
+  EXPECT_EQ(files_in(station.dds.security.directory),
+            (std::set<std::string>{"ca.cert.pem", "fleet.txt", "governance.p7s",
+                                   "identities/station.cert.pem", "identities/station.key.pem",
+                                   "identities/station.permissions.p7s"}));
 }
 
 TEST_F(MissionCommand, FailingAgentIsNamedWithItsReason) {

@@ -17,6 +17,7 @@ DdsSettings isolated_settings() {
   DdsSettings s;
   s.domain_id = static_cast<int>(100 + (static_cast<unsigned>(::getpid()) + entropy()) % 130);
   s.partition = "station-readers-" + std::to_string(entropy());
+  s.security.enabled = false;
   return s;
 }
 

@@ -161,6 +161,27 @@ TEST(BuildBandwidthReport, NoRobotsGivesAnEmptyFleetRow) {
   EXPECT_EQ(report.fleet.saving_vs_stream_all(), 0.0);
 }
 
+TEST(BandwidthReportSecurity, ARunWithoutDdsSecuritySaysSoInTheTableAndTheJson) {
+  BandwidthReport report = build_bandwidth_report({});
+  EXPECT_EQ(format_table(report).find("DDS-Security: off"), std::string::npos);
+  EXPECT_EQ(nlohmann::json::parse(to_json(report))["dds_security"], true);
+  report.dds_security = false;
+  EXPECT_NE(format_table(report).find("DDS-Security: off"), std::string::npos);
+  EXPECT_EQ(nlohmann::json::parse(to_json(report))["dds_security"], false);
+}
+
+TEST(BandwidthReportSecurity, RobotsWithoutIdentityAndWithdrawnOnesAreCounted) {
+  BandwidthReport report = build_bandwidth_report({});
+  report.refused.no_identity = 2;
+  report.refused.withdrawn = 1;
+  report.refused.ids = {"stranger", "ghost", "lost"};
+  const auto json = nlohmann::json::parse(to_json(report));
+  EXPECT_EQ(json["refused_robots"]["no_identity"], 2);
+  EXPECT_EQ(json["refused_robots"]["withdrawn"], 1);
+  EXPECT_NE(format_table(report).find("2 without an identity, 1 withdrawn"), std::string::npos)
+      << format_table(report);
+}
+
 TEST(BandwidthReportCsv, HasHeaderOneLinePerRobotAndFleetLast) {
   const auto report = build_bandwidth_report(
       {robot("alpha", 10, 100, 1000, 400), robot("bravo", 20, 300, 2000, 800)});

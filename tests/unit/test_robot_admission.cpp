@@ -1,4 +1,5 @@
-// RobotAdmission: the allow-list, the quota, one log line per refused robot, bounded memory.
+// RobotAdmission: the fleet's roster, the allow-list, the quota, one log line per refused robot,
+// bounded memory.
 #include <gtest/gtest.h>
 #include <spdlog/sinks/ostream_sink.h>
 
@@ -46,6 +47,41 @@ TEST_F(RobotAdmissionTest, AnEmptyAllowListAdmitsAnyoneUpToTheQuota) {
   EXPECT_EQ(admission.refusals().over_quota, 1u);
   EXPECT_EQ(lines_mentioning("robot 'charlie' refused: limits.max_robots"), 1u) << log_.str();
   EXPECT_EQ(lines_mentioning("(2)"), 1u) << "the quota is named: " << log_.str();
+}
+
+// Security on: an id without an identity never takes a slot, so a stranger who asks first
+// cannot lock a robot of the fleet out; a withdrawn robot is refused and counted as such.
+TEST_F(RobotAdmissionTest, WithARosterOnlyTheFleetsRobotsTakeSlots) {
+  FleetRoster roster;
+  roster.robots = {"drone_0", "drone_1"};
+  roster.withdrawn = {"lost_drone"};
+  StationLimits limits;
+  limits.max_robots = 1;
+  RobotAdmission admission(limits, logger_, roster);
+  EXPECT_EQ(admission.admit("stranger"), Verdict::kNoIdentity);
+  EXPECT_EQ(admission.admit("lost_drone"), Verdict::kWithdrawn);
+  EXPECT_EQ(admission.admit("drone_1"), Verdict::kAdmitted) << "the only slot was still free";
+  EXPECT_EQ(admission.admit("drone_0"), Verdict::kOverQuota);
+  const RobotRefusals refusals = admission.refusals();
+  EXPECT_EQ(refusals.no_identity, 1u);
+  EXPECT_EQ(refusals.withdrawn, 1u);
+  EXPECT_EQ(refusals.over_quota, 1u);
+  EXPECT_EQ(refusals.ids, (std::vector<std::string>{"stranger", "lost_drone", "drone_0"}));
+  EXPECT_EQ(lines_mentioning("robot 'stranger' refused: no identity in the fleet"), 1u)
+      << log_.str();
+  EXPECT_EQ(lines_mentioning("robot 'lost_drone' refused: withdrawn from the fleet"), 1u)
+      << log_.str();
+}
+
+TEST_F(RobotAdmissionTest, TheRosterAndTheAllowListBothApply) {
+  FleetRoster roster;
+  roster.robots = {"drone_0", "drone_1"};
+  StationLimits limits;
+  limits.allowed_robots = {"drone_1", "drone_9"};
+  RobotAdmission admission(limits, logger_, roster);
+  EXPECT_EQ(admission.admit("drone_1"), Verdict::kAdmitted);
+  EXPECT_EQ(admission.admit("drone_0"), Verdict::kNotAllowed);
+  EXPECT_EQ(admission.admit("drone_9"), Verdict::kNoIdentity);
 }
 
 TEST_F(RobotAdmissionTest, OnlyTheAllowListIsAdmitted) {

@@ -82,6 +82,7 @@ DdsSettings FleetFixture::dds() const {
   s.partition = partition_;
   s.lease_duration_s = 2.0;
   s.announcement_period_s = 0.5;
+  s.security.enabled = false;  // plain DDS unless a test secures it (test_dds_security)
   return s;
 }
 

@@ -42,7 +42,8 @@ class FleetFixture : public ::testing::Test {
   static void remove_stale_shared_memory();
 
   // Settings shared by every process of this test: unique domain and partition,
-  // fast discovery (lease 2 s, announcements 0.5 s) so that tests wait seconds, not tens.
+  // fast discovery (lease 2 s, announcements 0.5 s) so that tests wait seconds, not tens;
+  // DDS-Security off (tests that want it set dds.security).
   DdsSettings dds() const;
   AgentConfig agent_config(const std::string& robot_id) const;
   StationConfig station_config() const;

@@ -16,6 +16,7 @@
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/scenario_truth.hpp"
 #include "keyfleet/common/sqlite.hpp"
+#include "keyfleet/common/topic_names.hpp"
 #include "keyfleet/mission/child_process.hpp"
 #include "keyfleet/mission/fleet_credentials.hpp"
 #include "keyfleet/scenario/scenario_config.hpp"
@@ -161,12 +162,19 @@ MissionResult MissionRunner::run(const StopToken& stop) {
   limits.allowed_robots = robot_ids;
   limits.max_robots = std::max(limits.max_robots, static_cast<int>(robot_ids.size()));
 
+  // Each process gets its host's bundle only: no agent holds another's key or the CA's.
+  const fs::path credentials = run_dir / "security";
   if (config_.security) {
-    const fs::path credentials = run_dir / "security";
     write_fleet_credentials({credentials.string(), robot_ids}, logger_);
-    config_.station.dds.security = {true, credentials.string()};
-    config_.agent.dds.security = {true, credentials.string()};
-    progress_ << "DDS-Security on: credentials in " << credentials.string() << "\n";
+    config_.station.dds.security = {true, host_bundle(credentials.string(), kStationIdentity)};
+    progress_ << "DDS-Security on: one bundle per host in " << (credentials / "hosts").string()
+              << "\n";
+  } else {
+    config_.station.dds.security.enabled = false;
+    config_.agent.dds.security.enabled = false;
+    logger_->warn("DDS-Security off (mission security: false): plain DDS on domain {}", domain);
+    progress_ << "DDS-Security off (security: false): anyone on DDS domain " << domain
+              << " can read and write this mission's keyframes\n";
   }
   write_text(run_dir / "config" / "station.yaml", to_yaml(config_.station));
   write_text(run_dir / "config" / "mission.yaml", to_yaml(config_));
@@ -188,6 +196,8 @@ MissionResult MissionRunner::run(const StopToken& stop) {
     agent.source.seed = config_.agent.source.seed + static_cast<std::uint64_t>(i);
     agent.dds.domain_id = domain;
     agent.dds.partition = partition;
+    if (config_.security)
+      agent.dds.security = {true, host_bundle(credentials.string(), agent.robot_id)};
     if (hooks_.adjust_agent) hooks_.adjust_agent(i, agent);
     const fs::path agent_dir = run_dir / agent.robot_id;
     fs::create_directories(agent_dir);

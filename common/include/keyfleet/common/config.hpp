@@ -15,9 +15,13 @@ namespace keyfleet {
 // control, AES-GCM-GMAC encryption. The files are those of `keyfleet security init`
 // (security_files.hpp); a mission makes them for its run. The participant's identity is the
 // robot id (agents) or "station".
+// On unless a config says `enabled: false`: a process without usable credentials refuses to
+// start (security_files.hpp), one with security off says so at start and in its report.
 struct DdsSecurity {
-  bool enabled = false;
-  std::string directory;  // the credentials folder; relative paths from the config file's folder
+  bool enabled = true;
+  // This host's bundle (DIR/hosts/<id> of `keyfleet security init`); relative paths from the
+  // config file's folder, so by default a folder `credentials` beside the config.
+  std::string directory = "credentials";
 };
 
 // A radio link between a robot and the station (or its relay), for which the DDS adapter tunes

@@ -43,6 +43,9 @@ struct BandwidthReport {
   // Robots the station did not serve (limits.allowed_robots, max_robots): nothing of theirs is
   // stored, so this is known only to the running station, which sets it before writing.
   RobotRefusals refused;
+  // Whether the station ran with DDS-Security (set by the running station): a report of a run
+  // without it says so.
+  bool dds_security = true;
 };
 
 BandwidthReport build_bandwidth_report(const std::vector<RobotTotals>& totals);
