@@ -6,6 +6,9 @@ it) and checks that every keyframe each agent sent is in the station's database 
 
 Skips (exit 77, ctest SKIP_RETURN_CODE) where no container engine works here; set one up with
 scripts/container_setup.sh (podman as root, its configuration in $KEYFLEET_CONTAINERS_DIR).
+With KEYFLEET_CONTAINER_TEST=required (scripts/test.sh sets it under CI=true or as root, after
+container_setup.sh) a reason to skip is a failure, unless `container_setup.sh --check-host` says
+this machine cannot run containers at all (no root, or the kernel refuses namespaces or cgroups).
 Waits on conditions (container exits) with time limits, never a fixed sleep.
 
 usage: test_compose_mission.py KEYFLEET_BINARY SOURCE_DIR WORK_DIR
@@ -30,7 +33,19 @@ DRONES = ("drone_0", "drone_1")
 IMAGES = {"agent": "localhost/keyfleet-agent:latest", "station": "localhost/keyfleet-station:latest"}
 
 
+SOURCE_DIR = None  # set by main; container_setup.sh --check-host is there
+
+
 def skip(reason):
+    """Skips, or where the container test is required, fails unless the machine cannot run
+    containers at all (container_setup.sh --check-host, the one definition of 'cannot')."""
+    if os.environ.get("KEYFLEET_CONTAINER_TEST") == "required":
+        check = subprocess.run([str(SOURCE_DIR / "scripts/container_setup.sh"), "--check-host"],
+                               capture_output=True, text=True)
+        if check.returncode != SKIP:
+            fail(f"{reason} (KEYFLEET_CONTAINER_TEST=required, and this machine can run "
+                 f"containers: {check.stdout.strip()})")
+        reason = f"{reason}; {check.stdout.strip()}"
     print(f"SKIP: {reason}", flush=True)
     sys.exit(SKIP)
 
@@ -102,7 +117,9 @@ def agent_summary(log_path):
 def main():
     if len(sys.argv) != 4:
         sys.exit(__doc__)
+    global SOURCE_DIR
     keyfleet_bin, source_dir, work = Path(sys.argv[1]), Path(sys.argv[2]), Path(sys.argv[3])
+    SOURCE_DIR = source_dir
     env = container_engine_env()
     if work.exists():
         shutil.rmtree(work)
