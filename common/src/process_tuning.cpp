@@ -1,6 +1,7 @@
 #include "keyfleet/common/process_tuning.hpp"
 
 #include <malloc.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cstdlib>
@@ -17,5 +18,7 @@ void limit_openmp_to_one_thread(char** argv) {
   setenv("OMP_THREAD_LIMIT", "1", 1);
   execv("/proc/self/exe", argv);  // returns only on failure
 }
+
+void keep_created_files_private() { umask(S_IRWXG | S_IRWXO); }
 
 }  // namespace keyfleet

@@ -105,8 +105,10 @@ int run(const ProcessOptions& options) {
                     fs::perm_options::replace, mode_error);
     if (mode_error)
       logger->warn("cannot make {} private: {}", url_file.string(), mode_error.message());
+    // The token (configured or generated) stays out of the log.
     logger->info("dashboard at {}{}", url.substr(0, url.find('?')),
-                 config.dashboard.token.empty() ? "" : " (with its token: see dashboard.url)");
+                 url.find("?token=") == std::string::npos ? ""
+                                                          : " (with its token: see dashboard.url)");
   }
   station.on_stored([&analysis, &dashboard](const Keyframe& k) {
     analysis.on_stored(k);
@@ -186,6 +188,7 @@ int run(const ProcessOptions& options) {
 int main(int argc, char** argv) {
   keyfleet::limit_openmp_to_one_thread(argv);
   keyfleet::block_termination_signals();
+  keyfleet::keep_created_files_private();
   keyfleet::ProcessOptions options;
   CLI::App app{"keyfleet ground station: stores and reports the fleet's keyframes"};
   keyfleet::add_process_options(app, options, "station YAML config");

@@ -78,6 +78,7 @@ int run(const ProcessOptions& options, const std::string& robot_id) {
 
 int main(int argc, char** argv) {
   keyfleet::block_termination_signals();
+  keyfleet::keep_created_files_private();
   keyfleet::keep_image_buffers_in_heap();
   keyfleet::ProcessOptions options;
   std::string robot_id;

@@ -80,6 +80,14 @@ TEST_F(MissionCommand, TwoDroneMissionPrintsReportAndSucceeds) {
             (std::set<std::string>{"ca.cert.pem", "fleet.txt", "governance.p7s",
                                    "identities/station.cert.pem", "identities/station.key.pem",
                                    "identities/station.permissions.p7s"}));
+  // Nothing of the run is readable by other users: the folders, the keyframes, the reports.
+  const auto others = std::filesystem::perms::group_all | std::filesystem::perms::others_all;
+  for (const auto& path : {run, run / "station", run / "station" / "station.sqlite",
+                           run / "station" / "report.json", run / "drone_0" / "outbox.sqlite"}) {
+    ASSERT_TRUE(std::filesystem::exists(path)) << path;
+    EXPECT_EQ(std::filesystem::status(path).permissions() & others, std::filesystem::perms::none)
+        << path << " is readable by others";
+  }
 }
 
 TEST_F(MissionCommand, FailingAgentIsNamedWithItsReason) {

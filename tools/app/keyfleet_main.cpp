@@ -118,6 +118,7 @@ int run_selection_eval(const std::string& scenario_dir, const std::vector<std::s
 int main(int argc, char** argv) {
   keyfleet::limit_openmp_to_one_thread(argv);
   keyfleet::block_termination_signals();
+  keyfleet::keep_created_files_private();
   keyfleet::keep_image_buffers_in_heap();
   CLI::App app{"keyfleet: keyframe sharing for robot fleets over weak links"};
   app.require_subcommand(1);

@@ -19,3 +19,12 @@ namespace keyfleet {
 void limit_openmp_to_one_thread(char** argv);
 
 }  // namespace keyfleet
+
+namespace keyfleet {
+
+// Run folders hold pictures of where the robots were, credentials and the dashboard's token:
+// what the process creates from then on is its owner's alone (umask 077: folders 0700, files
+// 0600). Process-wide: call first thing in main.
+void keep_created_files_private();
+
+}  // namespace keyfleet
