@@ -47,6 +47,10 @@ SqliteStatement& SqliteStatement::bind_null(int index) {
   return *this;
 }
 
+int SqliteStatement::parameter_index(const std::string& name) const {
+  return sqlite3_bind_parameter_index(stmt_, name.c_str());
+}
+
 bool SqliteStatement::step() {
   const int rc = sqlite3_step(stmt_);
   check(rc, "step");
@@ -75,6 +79,13 @@ bool SqliteStatement::is_null(int column) const {
   return sqlite3_column_type(stmt_, column) == SQLITE_NULL;
 }
 
+int SqliteStatement::column_index(const std::string& name) const {
+  const int count = sqlite3_column_count(stmt_);
+  for (int i = 0; i < count; ++i)
+    if (name == sqlite3_column_name(stmt_, i)) return i;
+  return -1;
+}
+
 SqliteDb::SqliteDb(const std::string& path, Mode mode) : path_(path) {
   const int flags =
       mode == Mode::kReadOnly ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE;
@@ -85,7 +96,15 @@ SqliteDb::SqliteDb(const std::string& path, Mode mode) : path_(path) {
   }
   sqlite3_busy_timeout(db_, 5000);
   if (mode == Mode::kReadWrite) {
-    exec("PRAGMA journal_mode=WAL");
+    // The first statement reads the schema: a damaged one is said as such, naming the file.
+    const int rc = sqlite3_exec(db_, "PRAGMA journal_mode=WAL", nullptr, nullptr, nullptr);
+    if (rc == SQLITE_CORRUPT || rc == SQLITE_NOTADB) {
+      const std::string message = sqlite3_errmsg(db_);
+      sqlite3_close(db_);
+      throw SqliteError(path + ": fails SQLite's integrity check (" + message +
+                        "): move it aside, or restore it from a copy, and start again");
+    }
+    if (rc != SQLITE_OK) exec("PRAGMA journal_mode=WAL");  // says why
   }
 }
 

@@ -1,11 +1,11 @@
 #include "keyfleet/station/analysis_attempts.hpp"
 
+#include "keyfleet/station/station_schema.hpp"
+
 namespace keyfleet::station {
 
 AnalysisAttempts::AnalysisAttempts(const std::string& path) : db_(path) {
-  db_.exec(
-      "CREATE TABLE IF NOT EXISTS analysis_attempts (robot_id TEXT NOT NULL, sequence_number "
-      "INTEGER NOT NULL, attempts INTEGER NOT NULL, PRIMARY KEY (robot_id, sequence_number))");
+  open_station_schema(db_, SqliteDb::Mode::kReadWrite);
 }
 
 void AnalysisAttempts::started(const KeyframeKey& key) {

@@ -4,59 +4,10 @@
 #include <cstring>
 #include <set>
 
+#include "keyfleet/station/station_schema.hpp"
+
 namespace keyfleet::station {
 namespace {
-
-// keyframes (robot_id, sequence_number) is the KeyframeStore's table in the same file.
-constexpr const char* kSchema = R"sql(
-CREATE TABLE IF NOT EXISTS keyframe_analysis (
-  robot_id TEXT NOT NULL,
-  sequence_number INTEGER NOT NULL,
-  capture_time_ns INTEGER NOT NULL,
-  status TEXT NOT NULL,
-  detail TEXT NOT NULL,
-  analysed_order INTEGER NOT NULL,
-  words INTEGER NOT NULL,
-  candidates_checked INTEGER NOT NULL,
-  text_ms REAL NOT NULL,
-  places_ms REAL NOT NULL,
-  PRIMARY KEY (robot_id, sequence_number)
-);
-CREATE TABLE IF NOT EXISTS keyframe_features (
-  robot_id TEXT NOT NULL,
-  sequence_number INTEGER NOT NULL,
-  count INTEGER NOT NULL,
-  keypoints BLOB NOT NULL,
-  descriptors BLOB NOT NULL,
-  PRIMARY KEY (robot_id, sequence_number)
-);
-CREATE TABLE IF NOT EXISTS keyframe_descriptors (
-  robot_id TEXT NOT NULL,
-  sequence_number INTEGER NOT NULL,
-  dimensions INTEGER NOT NULL,
-  descriptor BLOB NOT NULL,
-  PRIMARY KEY (robot_id, sequence_number)
-);
-CREATE TABLE IF NOT EXISTS words (
-  word_id INTEGER PRIMARY KEY,
-  robot_id TEXT NOT NULL,
-  sequence_number INTEGER NOT NULL,
-  text TEXT NOT NULL,
-  confidence REAL NOT NULL,
-  x INTEGER NOT NULL, y INTEGER NOT NULL, width INTEGER NOT NULL, height INTEGER NOT NULL
-);
-CREATE INDEX IF NOT EXISTS words_by_keyframe ON words(robot_id, sequence_number);
-CREATE VIRTUAL TABLE IF NOT EXISTS words_fts USING fts5(text, content='words', content_rowid='word_id');
-CREATE TABLE IF NOT EXISTS place_matches (
-  robot_id TEXT NOT NULL,
-  sequence_number INTEGER NOT NULL,
-  match_robot_id TEXT NOT NULL,
-  match_sequence_number INTEGER NOT NULL,
-  matches INTEGER NOT NULL,
-  inliers INTEGER NOT NULL,
-  bow_score REAL NOT NULL,
-  PRIMARY KEY (robot_id, sequence_number, match_robot_id, match_sequence_number)
-);)sql";
 
 // Keypoints as 6 floats each: x, y, size, angle, response, octave.
 std::vector<std::uint8_t> pack_keypoints(const std::vector<cv::KeyPoint>& keypoints) {
@@ -93,7 +44,7 @@ std::int64_t as_int(std::uint64_t v) { return static_cast<std::int64_t>(v); }
 }  // namespace
 
 AnalysisStore::AnalysisStore(const std::string& path, SqliteDb::Mode mode) : db_(path, mode) {
-  if (mode == SqliteDb::Mode::kReadWrite) db_.exec(kSchema);
+  open_station_schema(db_, mode);
 }
 
 void AnalysisStore::save(const AnalysisResult& r) {

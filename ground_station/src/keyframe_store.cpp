@@ -3,86 +3,32 @@
 #include <map>
 
 #include "keyfleet/common/fnv1a.hpp"
-#include "keyfleet/common/text_region_blob.hpp"
+#include "keyfleet/common/record_sql.hpp"
+#include "keyfleet/station/station_schema.hpp"
 
 namespace keyfleet::station {
 namespace {
 
-constexpr const char* kSchema = R"sql(
-CREATE TABLE IF NOT EXISTS keyframes (
-  robot_id TEXT NOT NULL,
-  sequence_number INTEGER NOT NULL,
-  frame_index INTEGER NOT NULL,
-  capture_time_ns INTEGER NOT NULL,
-  received_ns INTEGER NOT NULL,
-  vslam_keyframe_index INTEGER NOT NULL,
-  window_first_frame INTEGER NOT NULL,
-  window_last_frame INTEGER NOT NULL,
-  quality_score REAL NOT NULL,
-  sharpness_score REAL NOT NULL,
-  semantic_score REAL NOT NULL,
-  encoding TEXT NOT NULL,
-  width INTEGER NOT NULL,
-  height INTEGER NOT NULL,
-  image BLOB NOT NULL,
-  image_fnv1a64 INTEGER NOT NULL,
-  serialized_bytes INTEGER NOT NULL,
-  pose_tx REAL, pose_ty REAL, pose_tz REAL,
-  pose_qx REAL, pose_qy REAL, pose_qz REAL, pose_qw REAL,
-  text_regions BLOB,
-  PRIMARY KEY (robot_id, sequence_number)
-);
-CREATE TABLE IF NOT EXISTS rejected (
-  robot_id TEXT NOT NULL,
-  sequence_number INTEGER NOT NULL,
-  received_ns INTEGER NOT NULL,
-  reason TEXT NOT NULL,
-  PRIMARY KEY (robot_id, sequence_number)
-);
-CREATE TABLE IF NOT EXISTS conflicts (
-  robot_id TEXT NOT NULL,
-  sequence_number INTEGER NOT NULL,
-  image_fnv1a64 INTEGER NOT NULL,
-  received_ns INTEGER NOT NULL,
-  frame_index INTEGER NOT NULL,
-  capture_time_ns INTEGER NOT NULL,
-  width INTEGER NOT NULL,
-  height INTEGER NOT NULL,
-  image BLOB NOT NULL,
-  PRIMARY KEY (robot_id, sequence_number, image_fnv1a64)
-);
-CREATE TABLE IF NOT EXISTS agent_stats (
-  robot_id TEXT PRIMARY KEY,
-  report_time_ns INTEGER NOT NULL,
-  finished INTEGER NOT NULL,
-  frames_seen INTEGER NOT NULL,
-  vslam_keyframes INTEGER NOT NULL,
-  keyframes_sent INTEGER NOT NULL,
-  keyframes_resent INTEGER NOT NULL,
-  keyframes_dropped INTEGER NOT NULL,
-  keyframes_pending INTEGER NOT NULL,
-  bytes_sent INTEGER NOT NULL,
-  bytes_resent INTEGER NOT NULL,
-  stream_all_bytes INTEGER NOT NULL,
-  stream_all_estimated INTEGER NOT NULL,
-  stream_all_sampled_frames INTEGER NOT NULL,
-  vslam_keyframe_bytes INTEGER NOT NULL,
-  vslam_keyframe_estimated INTEGER NOT NULL
-);
-CREATE TABLE IF NOT EXISTS agent_stats_history (
-  robot_id TEXT NOT NULL,
-  report_time_ns INTEGER NOT NULL,
-  frames_seen INTEGER NOT NULL,
-  stream_all_bytes INTEGER NOT NULL,
-  vslam_keyframe_bytes INTEGER NOT NULL
-);
-CREATE TABLE IF NOT EXISTS stage_times (
-  robot_id TEXT NOT NULL,
-  stage TEXT NOT NULL,
-  cpu_ms_total REAL NOT NULL,
-  calls INTEGER NOT NULL,
-  PRIMARY KEY (robot_id, stage)
-);)sql";
+const std::vector<SqlColumn>& keyframe_columns() {
+  static const std::vector<SqlColumn> kColumns = sql_columns<Keyframe>(RecordStore::kStation);
+  return kColumns;
+}
+
+const std::vector<SqlColumn>& stats_columns() {
+  static const std::vector<SqlColumn> kColumns = sql_columns<AgentStats>(RecordStore::kStation);
+  return kColumns;
+}
+
+// The newest report of a robot replaces the one stored, an older one (reordered) does not.
+std::string upsert_stats_sql() {
+  std::string updates;
+  for (const SqlColumn& c : stats_columns())
+    if (c.name != "robot_id")
+      updates += (updates.empty() ? "" : ", ") + c.name + "=excluded." + c.name;
+  return "INSERT INTO agent_stats(" + column_list(stats_columns()) + ") VALUES(" +
+         column_list(stats_columns(), ":") + ") ON CONFLICT(robot_id) DO UPDATE SET " + updates +
+         " WHERE excluded.report_time_ns >= agent_stats.report_time_ns";
+}
 
 std::int64_t as_int(std::uint64_t v) { return static_cast<std::int64_t>(v); }
 std::uint64_t as_uint(std::int64_t v) { return static_cast<std::uint64_t>(v); }
@@ -98,8 +44,8 @@ std::optional<Pose> pose_at(const SqliteStatement& row, int first) {
 
 KeyframeStore::KeyframeStore(const std::string& path, SqliteDb::Mode mode) : db_(path, mode) {
   if (mode == SqliteDb::Mode::kReadOnly) {
-    auto columns = db_.prepare("SELECT 1 FROM pragma_table_info('keyframes') WHERE name = ?");
-    has_text_regions_ = columns.bind(1, std::string("text_regions")).step();
+    open_station_schema(db_, mode);
+    // A file the station wrote before versions were kept may lack the later tables.
     auto has_table = [this](const std::string& name) {
       return db_.prepare("SELECT 1 FROM sqlite_master WHERE type='table' AND name=?")
           .bind(1, name)
@@ -117,48 +63,21 @@ KeyframeStore::KeyframeStore(const std::string& path, SqliteDb::Mode mode) : db_
       throw SqliteError(path + ": fails SQLite's integrity check (" + verdict +
                         "): move it aside, or restore it from a copy, and start again");
   }
-  db_.exec(kSchema);
-  // Databases written before keyframes carried text regions: their keyframes have none.
-  db_.add_column_if_missing("keyframes", "text_regions", "BLOB");
+  open_station_schema(db_, mode);
   db_.exec("PRAGMA synchronous=FULL");  // an acknowledged keyframe survives a power cut
 }
 
 StoreOutcome KeyframeStore::store(const Keyframe& k, std::uint64_t serialized_bytes,
                                   std::int64_t received_ns) {
-  auto insert = db_.prepare(
-      "INSERT OR IGNORE INTO keyframes(robot_id, sequence_number, frame_index, capture_time_ns, "
-      "received_ns, vslam_keyframe_index, window_first_frame, window_last_frame, quality_score, "
-      "sharpness_score, semantic_score, encoding, width, height, image, image_fnv1a64, "
-      "serialized_bytes, pose_tx, pose_ty, pose_tz, pose_qx, pose_qy, pose_qz, pose_qw, "
-      "text_regions) VALUES(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
-  insert.bind(1, k.robot_id)
-      .bind(2, as_int(k.sequence_number))
-      .bind(3, as_int(k.frame_index))
-      .bind(4, k.capture_time_ns)
-      .bind(5, received_ns)
-      .bind(6, as_int(k.vslam_keyframe_index))
-      .bind(7, as_int(k.window_first_frame))
-      .bind(8, as_int(k.window_last_frame))
-      .bind(9, k.quality_score)
-      .bind(10, k.sharpness_score)
-      .bind(11, k.semantic_score)
-      .bind(12, k.encoding)
-      .bind(13, std::int64_t{k.width})
-      .bind(14, std::int64_t{k.height})
-      .bind(15, k.image)
-      .bind(16, as_int(fnv1a64(k.image)))
-      .bind(17, as_int(serialized_bytes));
-  if (k.camera_pose) {
-    const Pose& p = *k.camera_pose;
-    const double values[7] = {p.tx, p.ty, p.tz, p.qx, p.qy, p.qz, p.qw};
-    for (int i = 0; i < 7; ++i) insert.bind(18 + i, values[i]);
-  } else {
-    for (int i = 0; i < 7; ++i) insert.bind_null(18 + i);
-  }
-  if (k.text_regions.empty())
-    insert.bind_null(25);
-  else
-    insert.bind(25, text_regions_blob(k.text_regions));
+  static const std::string sql =
+      "INSERT OR IGNORE INTO keyframes(" + column_list(keyframe_columns()) +
+      ", received_ns, image_fnv1a64, serialized_bytes) VALUES(" +
+      column_list(keyframe_columns(), ":") + ", :received_ns, :image_fnv1a64, :serialized_bytes)";
+  auto insert = db_.prepare(sql);
+  bind_record(insert, k, RecordStore::kStation);
+  insert.bind(insert.parameter_index(":received_ns"), received_ns)
+      .bind(insert.parameter_index(":image_fnv1a64"), as_int(fnv1a64(k.image)))
+      .bind(insert.parameter_index(":serialized_bytes"), as_int(serialized_bytes));
   insert.step();
   if (db_.changes() > 0) return StoreOutcome::kStored;
   auto stored =
@@ -198,37 +117,10 @@ bool KeyframeStore::record_rejection(const std::string& robot_id, std::uint64_t 
 void KeyframeStore::record_stats(const AgentStats& s) {
   db_.exec("BEGIN");
   try {
-    db_.prepare(
-           "INSERT INTO agent_stats VALUES(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?) "
-           "ON CONFLICT(robot_id) DO UPDATE SET report_time_ns=excluded.report_time_ns, "
-           "finished=excluded.finished, frames_seen=excluded.frames_seen, "
-           "vslam_keyframes=excluded.vslam_keyframes, keyframes_sent=excluded.keyframes_sent, "
-           "keyframes_resent=excluded.keyframes_resent, "
-           "keyframes_dropped=excluded.keyframes_dropped, "
-           "keyframes_pending=excluded.keyframes_pending, bytes_sent=excluded.bytes_sent, "
-           "bytes_resent=excluded.bytes_resent, stream_all_bytes=excluded.stream_all_bytes, "
-           "stream_all_estimated=excluded.stream_all_estimated, "
-           "stream_all_sampled_frames=excluded.stream_all_sampled_frames, "
-           "vslam_keyframe_bytes=excluded.vslam_keyframe_bytes, "
-           "vslam_keyframe_estimated=excluded.vslam_keyframe_estimated "
-           "WHERE excluded.report_time_ns >= agent_stats.report_time_ns")
-        .bind(1, s.robot_id)
-        .bind(2, s.report_time_ns)
-        .bind(3, std::int64_t{s.finished})
-        .bind(4, as_int(s.frames_seen))
-        .bind(5, as_int(s.vslam_keyframes))
-        .bind(6, as_int(s.keyframes_sent))
-        .bind(7, as_int(s.keyframes_resent))
-        .bind(8, as_int(s.keyframes_dropped))
-        .bind(9, as_int(s.keyframes_pending))
-        .bind(10, as_int(s.bytes_sent))
-        .bind(11, as_int(s.bytes_resent))
-        .bind(12, as_int(s.stream_all_bytes))
-        .bind(13, std::int64_t{s.stream_all_estimated})
-        .bind(14, as_int(s.stream_all_sampled_frames))
-        .bind(15, as_int(s.vslam_keyframe_bytes))
-        .bind(16, std::int64_t{s.vslam_keyframe_estimated})
-        .step();
+    static const std::string upsert = upsert_stats_sql();
+    auto statement = db_.prepare(upsert);
+    bind_record(statement, s, RecordStore::kStation);
+    statement.step();
     if (db_.changes() > 0) {
       db_.prepare("INSERT INTO agent_stats_history VALUES(?,?,?,?,?)")
           .bind(1, s.robot_id)
@@ -284,22 +176,7 @@ std::vector<RobotTotals> KeyframeStore::totals() const {
   auto stats = db_.prepare("SELECT * FROM agent_stats");
   while (stats.step()) {
     AgentStats s;
-    s.robot_id = stats.text(0);
-    s.report_time_ns = stats.int64(1);
-    s.finished = stats.int64(2) != 0;
-    s.frames_seen = as_uint(stats.int64(3));
-    s.vslam_keyframes = as_uint(stats.int64(4));
-    s.keyframes_sent = as_uint(stats.int64(5));
-    s.keyframes_resent = as_uint(stats.int64(6));
-    s.keyframes_dropped = as_uint(stats.int64(7));
-    s.keyframes_pending = as_uint(stats.int64(8));
-    s.bytes_sent = as_uint(stats.int64(9));
-    s.bytes_resent = as_uint(stats.int64(10));
-    s.stream_all_bytes = as_uint(stats.int64(11));
-    s.stream_all_estimated = stats.int64(12) != 0;
-    s.stream_all_sampled_frames = as_uint(stats.int64(13));
-    s.vslam_keyframe_bytes = as_uint(stats.int64(14));
-    s.vslam_keyframe_estimated = stats.int64(15) != 0;
+    read_record(stats, s, RecordStore::kStation);
     RobotTotals& t = by_robot[s.robot_id];
     t.robot_id = s.robot_id;
     t.latest_stats = s;
@@ -352,31 +229,12 @@ std::vector<StatsSample> KeyframeStore::stats_history() const {
 
 std::optional<Keyframe> KeyframeStore::load(const std::string& robot_id,
                                             std::uint64_t sequence) const {
-  auto query = db_.prepare(
-      "SELECT frame_index, capture_time_ns, vslam_keyframe_index, window_first_frame, "
-      "window_last_frame, quality_score, sharpness_score, semantic_score, encoding, width, "
-      "height, image, pose_tx, pose_ty, pose_tz, pose_qx, pose_qy, pose_qz, pose_qw, " +
-      std::string(has_text_regions_ ? "text_regions" : "NULL") +
-      " FROM keyframes WHERE robot_id = ? AND sequence_number = ?");
+  // Every column the file has: one written before a field was added gives its default.
+  auto query = db_.prepare("SELECT * FROM keyframes WHERE robot_id = ? AND sequence_number = ?");
   query.bind(1, robot_id).bind(2, as_int(sequence));
   if (!query.step()) return std::nullopt;
   Keyframe k;
-  k.robot_id = robot_id;
-  k.sequence_number = sequence;
-  k.frame_index = as_uint(query.int64(0));
-  k.capture_time_ns = query.int64(1);
-  k.vslam_keyframe_index = as_uint(query.int64(2));
-  k.window_first_frame = as_uint(query.int64(3));
-  k.window_last_frame = as_uint(query.int64(4));
-  k.quality_score = query.real(5);
-  k.sharpness_score = query.real(6);
-  k.semantic_score = query.real(7);
-  k.encoding = query.text(8);
-  k.width = static_cast<std::uint32_t>(query.int64(9));
-  k.height = static_cast<std::uint32_t>(query.int64(10));
-  k.image = query.blob(11);
-  k.camera_pose = pose_at(query, 12);
-  if (!query.is_null(19)) k.text_regions = text_regions_from_blob(query.blob(19));
+  read_record(query, k, RecordStore::kStation);
   return k;
 }
 

@@ -13,11 +13,19 @@
 
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/fnv1a.hpp"
+#include "keyfleet/station/record_proto.hpp"
 #include "mission_log.pb.h"
 
 namespace keyfleet::station {
 
 MissionLog::MissionLog(const std::string& path) : path_(path) {
+  // A field added to a sample but not to idl/mission_log.proto would be left out of every record.
+  records::MissionLogRecord record;
+  std::vector<std::string> missing = fields_missing_from(*record.mutable_keyframe(), Keyframe{});
+  for (auto& name : fields_missing_from(*record.mutable_agent_stats(), AgentStats{}))
+    missing.push_back(name);
+  if (!missing.empty())
+    throw StartupError("idl/mission_log.proto lacks the sample field " + missing.front());
   fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
   if (fd_ < 0)
     throw StartupError("cannot open mission log " + path +
@@ -59,20 +67,8 @@ void MissionLog::keyframe(const Keyframe& k, std::uint64_t serialized_bytes,
                           std::int64_t received_ns) {
   records::MissionLogRecord record;
   auto* r = record.mutable_keyframe();
-  r->set_robot_id(k.robot_id);
-  r->set_sequence_number(k.sequence_number);
-  r->set_frame_index(k.frame_index);
-  r->set_capture_time_ns(k.capture_time_ns);
+  to_proto(k, *r);
   r->set_received_time_ns(received_ns);
-  r->set_vslam_keyframe_index(k.vslam_keyframe_index);
-  r->set_window_first_frame(k.window_first_frame);
-  r->set_window_last_frame(k.window_last_frame);
-  r->set_quality_score(k.quality_score);
-  r->set_sharpness_score(k.sharpness_score);
-  r->set_semantic_score(k.semantic_score);
-  r->set_encoding(k.encoding);
-  r->set_width(k.width);
-  r->set_height(k.height);
   r->set_image_bytes(k.image.size());
   r->set_image_fnv1a64(fnv1a64(k.image));
   r->set_serialized_bytes(serialized_bytes);
@@ -92,29 +88,7 @@ void MissionLog::rejected(const std::string& robot_id, std::uint64_t sequence,
 
 void MissionLog::agent_stats(const AgentStats& s) {
   records::MissionLogRecord record;
-  auto* r = record.mutable_agent_stats();
-  r->set_robot_id(s.robot_id);
-  r->set_report_time_ns(s.report_time_ns);
-  r->set_finished(s.finished);
-  r->set_frames_seen(s.frames_seen);
-  r->set_vslam_keyframes(s.vslam_keyframes);
-  r->set_keyframes_sent(s.keyframes_sent);
-  r->set_keyframes_resent(s.keyframes_resent);
-  r->set_keyframes_dropped(s.keyframes_dropped);
-  r->set_keyframes_pending(s.keyframes_pending);
-  r->set_bytes_sent(s.bytes_sent);
-  r->set_bytes_resent(s.bytes_resent);
-  r->set_stream_all_bytes(s.stream_all_bytes);
-  r->set_stream_all_estimated(s.stream_all_estimated);
-  r->set_stream_all_sampled_frames(s.stream_all_sampled_frames);
-  r->set_vslam_keyframe_bytes(s.vslam_keyframe_bytes);
-  r->set_vslam_keyframe_estimated(s.vslam_keyframe_estimated);
-  for (const auto& stage : s.stages) {
-    auto* t = r->add_stages();
-    t->set_stage(stage.stage);
-    t->set_cpu_ms_total(stage.cpu_ms_total);
-    t->set_calls(stage.calls);
-  }
+  to_proto(s, *record.mutable_agent_stats());
   append(record);
 }
 

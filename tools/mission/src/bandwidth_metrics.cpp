@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/common/record_sql.hpp"
 #include "keyfleet/common/sqlite.hpp"
 
 namespace keyfleet::mission {
@@ -103,25 +104,11 @@ StationRecords read_station_records(const std::string& database_path) {
     while (keyframes.step())
       records.keyframes.push_back({keyframes.text(0), keyframes.int64(1), keyframes.int64(2),
                                    static_cast<std::uint64_t>(keyframes.int64(3))});
-    auto stats = db.prepare(
-        "SELECT robot_id, frames_seen, vslam_keyframes, keyframes_sent, keyframes_resent, "
-        "keyframes_dropped, keyframes_pending, bytes_sent, bytes_resent, stream_all_bytes, "
-        "stream_all_estimated, vslam_keyframe_bytes, vslam_keyframe_estimated FROM agent_stats");
+    auto stats = db.prepare("SELECT * FROM agent_stats");
     while (stats.step()) {
-      const auto u = [&](int column) { return static_cast<std::uint64_t>(stats.int64(column)); };
-      AgentTotals& t = records.agents[stats.text(0)];
-      t.frames_seen = u(1);
-      t.vslam_keyframes = u(2);
-      t.keyframes_sent = u(3);
-      t.keyframes_resent = u(4);
-      t.keyframes_dropped = u(5);
-      t.keyframes_pending = u(6);
-      t.bytes_sent = u(7);
-      t.bytes_resent = u(8);
-      t.stream_all_bytes = u(9);
-      t.stream_all_estimated = stats.int64(10) != 0;
-      t.vslam_keyframe_bytes = u(11);
-      t.vslam_keyframe_estimated = stats.int64(12) != 0;
+      AgentStats s;
+      read_record(stats, s, RecordStore::kStation);
+      records.agents[s.robot_id] = s;
     }
   } catch (const SqliteError& e) {
     throw StartupError(database_path + ": not a readable station database (" + e.what() + ")");

@@ -27,6 +27,8 @@ class SqliteStatement {
   SqliteStatement& bind(int index, const std::string& value);
   SqliteStatement& bind(int index, const std::vector<std::uint8_t>& blob);
   SqliteStatement& bind_null(int index);
+  // The index of a named parameter (":name"), 0 when the statement has none of that name.
+  int parameter_index(const std::string& name) const;
 
   bool step();  // true while a row is available
   void reset();
@@ -36,6 +38,8 @@ class SqliteStatement {
   std::string text(int column) const;
   std::vector<std::uint8_t> blob(int column) const;
   bool is_null(int column) const;
+  // The index of a result column by name, -1 when the result has no such column.
+  int column_index(const std::string& name) const;
 
  private:
   void check(int rc, const char* what) const;

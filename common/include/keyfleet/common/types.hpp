@@ -40,6 +40,30 @@ struct Keyframe {
   std::vector<TextRegion> text_regions;  // largest first; empty when the robot has none
 };
 
+// Keyframe's fields, once, in wire order: F(member, outbox, station), where outbox and station
+// are the schema versions of the agent's outbox and of the station's database whose migration
+// added the field's column (1: the first layout; 0: that file does not keep it). The wire
+// conversion, both stores, the mission log and the exports expand this list (record_fields.hpp):
+// a new field is its member above, its line here, and its line in idl/keyfleet.idl and
+// idl/mission_log.proto.
+#define KEYFLEET_KEYFRAME_FIELDS(F) \
+  F(robot_id, 0, 1)                 \
+  F(sequence_number, 1, 1)          \
+  F(frame_index, 1, 1)              \
+  F(capture_time_ns, 1, 1)          \
+  F(vslam_keyframe_index, 1, 1)     \
+  F(window_first_frame, 1, 1)       \
+  F(window_last_frame, 1, 1)        \
+  F(quality_score, 1, 1)            \
+  F(sharpness_score, 1, 1)          \
+  F(semantic_score, 1, 1)           \
+  F(encoding, 1, 1)                 \
+  F(width, 1, 1)                    \
+  F(height, 1, 1)                   \
+  F(image, 1, 1)                    \
+  F(camera_pose, 1, 1)              \
+  F(text_regions, 2, 4)
+
 struct StageTime {
   std::string stage;
   double cpu_ms_total = 0;
@@ -65,6 +89,29 @@ struct AgentStats {
   bool vslam_keyframe_estimated = true;
   std::vector<StageTime> stages;
 };
+
+// AgentStats' fields, once, in wire order: F(member, station), station being the schema version
+// of the station's database whose migration added the field's column (1: the first layout). As
+// for keyframes, a new counter is its member above, its line here, and its line in
+// idl/keyfleet.idl and idl/mission_log.proto.
+#define KEYFLEET_AGENT_STATS_FIELDS(F) \
+  F(robot_id, 1)                       \
+  F(report_time_ns, 1)                 \
+  F(finished, 1)                       \
+  F(frames_seen, 1)                    \
+  F(vslam_keyframes, 1)                \
+  F(keyframes_sent, 1)                 \
+  F(keyframes_resent, 1)               \
+  F(keyframes_dropped, 1)              \
+  F(keyframes_pending, 1)              \
+  F(bytes_sent, 1)                     \
+  F(bytes_resent, 1)                   \
+  F(stream_all_bytes, 1)               \
+  F(stream_all_estimated, 1)           \
+  F(stream_all_sampled_frames, 1)      \
+  F(vslam_keyframe_bytes, 1)           \
+  F(vslam_keyframe_estimated, 1)       \
+  F(stages, 1)
 
 // kConflict: the station already holds this (robot, sequence) with another image (the robot lost
 // its sequence numbers); the station keeps both, and the robot sends its copy again under a new

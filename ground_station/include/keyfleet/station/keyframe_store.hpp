@@ -71,9 +71,9 @@ class KeyframeStore {
 
  private:
   mutable SqliteDb db_;
-  bool has_text_regions_ = true;   // false in a read-only database written before them
-  bool has_stats_history_ = true;  // likewise
-  bool has_conflicts_ = true;      // likewise
+  // False in a read-only database written, before versions were kept, without these tables.
+  bool has_stats_history_ = true;
+  bool has_conflicts_ = true;
 };
 
 }  // namespace keyfleet::station

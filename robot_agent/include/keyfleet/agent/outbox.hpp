@@ -36,6 +36,9 @@ class Outbox {
   std::vector<std::uint64_t> evict(std::int64_t now_ns, bool by_age = true);
   std::uint64_t pending() const;
   const std::string& path() const { return db_.path(); }
+  // The newest layout of the file (PRAGMA user_version) this build writes; opening an older
+  // outbox migrates it, a newer one is refused.
+  static int schema_version();
 
  private:
   mutable SqliteDb db_;

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "keyfleet/common/types.hpp"
+
 namespace keyfleet::mission {
 
 // One stored keyframe (first copy) as the station recorded it.
@@ -19,20 +21,7 @@ struct DeliveredKeyframe {
 };
 
 // The agent's last stats sample as the station stored it.
-struct AgentTotals {
-  std::uint64_t frames_seen = 0;
-  std::uint64_t vslam_keyframes = 0;
-  std::uint64_t keyframes_sent = 0;
-  std::uint64_t keyframes_resent = 0;
-  std::uint64_t keyframes_dropped = 0;  // outbox evictions (the policy gave up on them)
-  std::uint64_t keyframes_pending = 0;
-  std::uint64_t bytes_sent = 0;
-  std::uint64_t bytes_resent = 0;
-  std::uint64_t stream_all_bytes = 0;
-  bool stream_all_estimated = true;
-  std::uint64_t vslam_keyframe_bytes = 0;
-  bool vslam_keyframe_estimated = true;
-};
+using AgentTotals = AgentStats;
 
 // Counters of the drone's end of a shaped link (veth statistics), when there was one.
 struct WireBytes {
