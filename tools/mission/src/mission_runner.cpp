@@ -118,26 +118,88 @@ void MissionRunner::write_report_html(const fs::path& run_dir, MissionResult& re
   }
 }
 
+MissionPlan plan_mission(const MissionConfig& config, const fs::path& run_dir,
+                         std::vector<std::string> robot_ids, const std::string& scenario_dir,
+                         int domain_id, const std::string& partition,
+                         const std::function<void(std::size_t, AgentConfig&)>& adjust_agent) {
+  MissionPlan plan;
+  plan.run_dir = run_dir;
+  plan.domain_id = domain_id;
+  plan.partition = partition;
+  plan.scenario_dir = scenario_dir;
+  plan.robot_ids = std::move(robot_ids);
+  const fs::path credentials = run_dir / "security";
+
+  // The station serves this mission's drones only, with the station's bundle.
+  plan.station = config.station;
+  plan.station.dds.domain_id = domain_id;
+  plan.station.dds.partition = partition;
+  StationLimits& limits = plan.station.limits;
+  limits.allowed_robots = plan.robot_ids;
+  limits.max_robots = std::max(limits.max_robots, static_cast<int>(plan.robot_ids.size()));
+  plan.station.dds.security =
+      config.security ? DdsSecurity{true, host_bundle(credentials.string(), kStationIdentity)}
+                      : DdsSecurity{false, ""};
+
+  // Each agent: its drone (a scenario's, replayed), its own seed and its host's bundle only.
+  for (std::size_t i = 0; i < plan.robot_ids.size(); ++i) {
+    AgentConfig agent = config.agent;
+    if (!scenario_dir.empty()) {
+      agent.source.kind = SourceConfig::Kind::kScenario;
+      agent.source.path = fs::absolute(scenario_dir).string();
+    }
+    agent.robot_id = plan.robot_ids[i];
+    agent.source.drone = plan.robot_ids[i];
+    agent.source.seed = config.agent.source.seed + static_cast<std::uint64_t>(i);
+    agent.dds.domain_id = domain_id;
+    agent.dds.partition = partition;
+    agent.dds.security = config.security
+                             ? DdsSecurity{true, host_bundle(credentials.string(), agent.robot_id)}
+                             : DdsSecurity{false, ""};
+    if (adjust_agent) adjust_agent(i, agent);
+    plan.agents.push_back(std::move(agent));
+  }
+  return plan;
+}
+
+// The steps of a mission, in order: a run folder, the drones, the plan, its files, the
+// processes, watching them, stopping them, and the report.
 MissionResult MissionRunner::run(const StopToken& stop) {
   MissionResult result;
-  const fs::path run_dir = fs::absolute(config_.run_root) /
-                           (config_.name + "-" + timestamp() + "-" + std::to_string(::getpid()));
-  fs::create_directories(run_dir / "config");
+  const fs::path run_dir = make_run_folder();
   result.run_dir = run_dir.string();
-
   std::random_device entropy;
   const int domain = config_.domain_id.value_or(static_cast<int>(10 + entropy() % 200));
   const std::string partition = "keyfleet-" + config_.name + "-" + std::to_string(::getpid()) +
                                 "-" + std::to_string(entropy() % 1000000);
-  config_.station.dds.domain_id = domain;
-  config_.station.dds.partition = partition;
   progress_ << "mission '" << config_.name << "': DDS domain " << domain << ", partition "
             << partition << "\nrun folder: " << run_dir.string() << "\n"
             << std::flush;
 
-  // A scenario decides the drones: one agent per scenario drone, replaying its frames.
-  std::vector<std::string> robot_ids;
-  std::string scenario_dir = config_.scenario_dir;
+  std::string scenario_dir;
+  std::vector<std::string> robot_ids = choose_drones(run_dir, scenario_dir);
+  result.scenario_dir = scenario_dir;
+  const MissionPlan plan = plan_mission(config_, run_dir, std::move(robot_ids), scenario_dir,
+                                        domain, partition, hooks_.adjust_agent);
+  write_plan(plan);
+  Processes processes = start(plan);
+  const bool station_died = watch(processes, plan, stop, result);
+  stop_processes(processes, station_died, result);
+  collect(plan, processes, result);
+  return result;
+}
+
+fs::path MissionRunner::make_run_folder() const {
+  const fs::path run_dir = fs::absolute(config_.run_root) /
+                           (config_.name + "-" + timestamp() + "-" + std::to_string(::getpid()));
+  fs::create_directories(run_dir / "config");
+  return run_dir;
+}
+
+// A scenario decides the drones: one agent per scenario drone, replaying its frames.
+std::vector<std::string> MissionRunner::choose_drones(const fs::path& run_dir,
+                                                      std::string& scenario_dir) {
+  scenario_dir = config_.scenario_dir;
   if (!config_.scenario.empty()) {
     scenario_dir = (run_dir / "scenario").string();
     progress_ << "generating scenario " << config_.scenario << " ...\n" << std::flush;
@@ -145,105 +207,98 @@ MissionResult MissionRunner::run(const StopToken& stop) {
         scenario::generate_scenario(load_scenario_config(config_.scenario), scenario_dir, logger_);
     progress_ << "scenario: " << summary.frames << " frames in " << summary.seconds << " s\n";
   }
-  result.scenario_dir = scenario_dir;
+  std::vector<std::string> robot_ids;
   if (!scenario_dir.empty()) {
     for (const auto& drone : scenario::read_scenario(scenario_dir).drones)
       if (config_.scenario_drones == 0 || int(robot_ids.size()) < config_.scenario_drones)
         robot_ids.push_back(drone.robot_id);
-    config_.agent.source.kind = SourceConfig::Kind::kScenario;
-    config_.agent.source.path = fs::absolute(scenario_dir).string();
   } else {
     for (int i = 0; i < config_.drones; ++i)
       robot_ids.push_back(config_.robot_id_prefix + std::to_string(i));
   }
+  return robot_ids;
+}
 
-  // The station serves this mission's drones only.
-  StationLimits& limits = config_.station.limits;
-  limits.allowed_robots = robot_ids;
-  limits.max_robots = std::max(limits.max_robots, static_cast<int>(robot_ids.size()));
-
-  // Each process gets its host's bundle only: no agent holds another's key or the CA's.
-  const fs::path credentials = run_dir / "security";
+// The credentials (one bundle per host) and every process's config file.
+void MissionRunner::write_plan(const MissionPlan& plan) {
+  const fs::path credentials = plan.run_dir / "security";
   if (config_.security) {
-    write_fleet_credentials({credentials.string(), robot_ids}, logger_);
-    config_.station.dds.security = {true, host_bundle(credentials.string(), kStationIdentity)};
+    write_fleet_credentials({credentials.string(), plan.robot_ids}, logger_);
     progress_ << "DDS-Security on: one bundle per host in " << (credentials / "hosts").string()
               << "\n";
   } else {
-    config_.station.dds.security.enabled = false;
-    config_.agent.dds.security.enabled = false;
-    logger_->warn("DDS-Security off (mission security: false): plain DDS on domain {}", domain);
-    progress_ << "DDS-Security off (security: false): anyone on DDS domain " << domain
+    logger_->warn("DDS-Security off (mission security: false): plain DDS on domain {}",
+                  plan.domain_id);
+    progress_ << "DDS-Security off (security: false): anyone on DDS domain " << plan.domain_id
               << " can read and write this mission's keyframes\n";
   }
-  write_text(run_dir / "config" / "station.yaml", to_yaml(config_.station));
-  write_text(run_dir / "config" / "mission.yaml", to_yaml(config_));
+  // The mission as it ran: its station's config, and the agents' shared settings as planned.
+  MissionConfig recorded = config_;
+  recorded.station = plan.station;
+  if (!plan.scenario_dir.empty()) {
+    recorded.agent.source.kind = SourceConfig::Kind::kScenario;
+    recorded.agent.source.path = fs::absolute(plan.scenario_dir).string();
+  }
+  if (!config_.security) recorded.agent.dds.security.enabled = false;
+  write_text(plan.run_dir / "config" / "station.yaml", to_yaml(plan.station));
+  write_text(plan.run_dir / "config" / "mission.yaml", to_yaml(recorded));
+  for (const AgentConfig& agent : plan.agents)
+    write_text(plan.run_dir / "config" / (agent.robot_id + ".yaml"), to_yaml(agent));
+}
 
-  progress_ << robot_ids.size() << " drone(s) + station\n" << std::flush;
-  const fs::path station_dir = run_dir / "station";
+MissionRunner::Processes MissionRunner::start(const MissionPlan& plan) {
+  progress_ << plan.robot_ids.size() << " drone(s) + station\n" << std::flush;
+  Processes p;
+  const fs::path station_dir = plan.run_dir / "station";
   fs::create_directories(station_dir);
-  ChildProcess station("ground_station",
-                       command("ground_station", {binaries_.ground_station, "--config",
-                                                  (run_dir / "config" / "station.yaml").string(),
-                                                  "--run-dir", station_dir.string()}),
-                       (station_dir / "station.log").string());
-
-  std::vector<std::unique_ptr<ChildProcess>> agents;
-  for (std::size_t i = 0; i < robot_ids.size(); ++i) {
-    AgentConfig agent = config_.agent;
-    agent.robot_id = robot_ids[i];
-    agent.source.drone = robot_ids[i];
-    agent.source.seed = config_.agent.source.seed + static_cast<std::uint64_t>(i);
-    agent.dds.domain_id = domain;
-    agent.dds.partition = partition;
-    if (config_.security)
-      agent.dds.security = {true, host_bundle(credentials.string(), agent.robot_id)};
-    if (hooks_.adjust_agent) hooks_.adjust_agent(i, agent);
-    const fs::path agent_dir = run_dir / agent.robot_id;
+  p.station = std::make_unique<ChildProcess>(
+      "ground_station",
+      command("ground_station", {binaries_.ground_station, "--config",
+                                 (plan.run_dir / "config" / "station.yaml").string(), "--run-dir",
+                                 station_dir.string()}),
+      (station_dir / "station.log").string());
+  for (const AgentConfig& agent : plan.agents) {
+    const fs::path agent_dir = plan.run_dir / agent.robot_id;
     fs::create_directories(agent_dir);
-    const fs::path agent_config = run_dir / "config" / (agent.robot_id + ".yaml");
-    write_text(agent_config, to_yaml(agent));
-    agents.push_back(std::make_unique<ChildProcess>(
+    p.agents.push_back(std::make_unique<ChildProcess>(
         agent.robot_id,
-        command(agent.robot_id, {binaries_.robot_agent, "--config", agent_config.string(),
+        command(agent.robot_id, {binaries_.robot_agent, "--config",
+                                 (plan.run_dir / "config" / (agent.robot_id + ".yaml")).string(),
                                  "--run-dir", agent_dir.string()}),
         (agent_dir / "agent.log").string()));
   }
+  return p;
+}
 
-  // The station writes its dashboard's address once it serves it.
-  auto note_dashboard = [&] {
-    if (!result.dashboard_url.empty() || !config_.station.dashboard.enabled) return;
-    result.dashboard_url = dashboard_url(station_dir);
-    if (!result.dashboard_url.empty())
-      progress_ << "dashboard: " << result.dashboard_url << "\n" << std::flush;
-  };
-
-  // Wait for the agents, reporting progress, failing fast if the station dies.
+// Waits for the agents, reporting progress, failing fast if the station dies; true when it did.
+bool MissionRunner::watch(Processes& p, const MissionPlan& plan, const StopToken& stop,
+                          MissionResult& result) {
+  const fs::path station_dir = plan.run_dir / "station";
   const auto start = Clock::now();
   const auto deadline = start + std::chrono::duration_cast<Clock::duration>(
                                     std::chrono::duration<double>(config_.agent_timeout_s));
   auto next_progress = start;
-  std::size_t running = agents.size();
+  std::size_t running = p.agents.size();
   bool station_died = false;
-  std::vector<bool> finished(agents.size(), false);
+  std::vector<bool> finished(p.agents.size(), false);
   while (running > 0 && !stop.requested()) {
     running = 0;
-    for (std::size_t i = 0; i < agents.size(); ++i) {
-      const auto status = agents[i]->poll();
+    for (std::size_t i = 0; i < p.agents.size(); ++i) {
+      const auto status = p.agents[i]->poll();
       if (!status) {
         ++running;
       } else if (!finished[i]) {
         finished[i] = true;
-        if (!status->ok()) result.failures.push_back(failure_line(*agents[i], *status));
+        if (!status->ok()) result.failures.push_back(failure_line(*p.agents[i], *status));
       }
     }
-    if (auto status = station.poll(); status && !station_died) {
+    if (auto status = p.station->poll(); status && !station_died) {
       station_died = true;
-      result.failures.push_back(failure_line(station, *status));
+      result.failures.push_back(failure_line(*p.station, *status));
       break;
     }
     if (Clock::now() >= deadline) {
-      for (auto& agent : agents) {
+      for (auto& agent : p.agents) {
         if (!agent->poll()) {
           agent->signal(SIGTERM);
           result.failures.push_back(agent->name() + " still running after agent_timeout_s=" +
@@ -252,13 +307,13 @@ MissionResult MissionRunner::run(const StopToken& stop) {
       }
       break;
     }
-    note_dashboard();
+    note_dashboard(station_dir, result);
     if (Clock::now() >= next_progress) {
       const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
       progress_ << "[" << static_cast<int>(elapsed) << " s] stored:";
       for (const auto& [robot, count] : stored_per_robot(station_dir / "station.sqlite"))
         progress_ << " " << robot << "=" << count;
-      progress_ << " | agents running " << running << "/" << agents.size() << "\n" << std::flush;
+      progress_ << " | agents running " << running << "/" << p.agents.size() << "\n" << std::flush;
       next_progress += std::chrono::seconds(2);
     }
     stop.wait_for(milliseconds(100));
@@ -268,7 +323,20 @@ MissionResult MissionRunner::run(const StopToken& stop) {
     progress_ << "interrupted: stopping agents and station\n";
     result.failures.push_back("mission interrupted by a signal");
   }
-  for (auto& agent : agents) {
+  return station_died;
+}
+
+// The station writes its dashboard's address once it serves it.
+void MissionRunner::note_dashboard(const fs::path& station_dir, MissionResult& result) {
+  if (!result.dashboard_url.empty() || !config_.station.dashboard.enabled) return;
+  result.dashboard_url = dashboard_url(station_dir);
+  if (!result.dashboard_url.empty())
+    progress_ << "dashboard: " << result.dashboard_url << "\n" << std::flush;
+}
+
+// The agents first, then the station, given time to drain.
+void MissionRunner::stop_processes(Processes& p, bool station_died, MissionResult& result) {
+  for (auto& agent : p.agents) {
     if (!agent->poll()) agent->signal(SIGTERM);
     const auto status = agent->wait_for(milliseconds(10000));
     if (!status) {
@@ -276,38 +344,38 @@ MissionResult MissionRunner::run(const StopToken& stop) {
       result.failures.push_back(agent->name() + " ignored SIGTERM for 10 s; killed");
     }
   }
+  if (station_died) return;
+  note_dashboard(fs::path(result.run_dir) / "station", result);
+  p.station->signal(SIGTERM);
+  const auto drained =
+      std::chrono::milliseconds(static_cast<long>(config_.station_drain_timeout_s * 1000));
+  const auto status = p.station->wait_for(drained);
+  if (!status) {
+    p.station->signal(SIGKILL);
+    p.station->wait_for(milliseconds(5000));
+    result.failures.push_back("ground_station did not stop within station_drain_timeout_s; killed");
+  } else if (!status->ok()) {
+    result.failures.push_back(failure_line(*p.station, *status));
+  }
+}
 
-  // Let the station drain, then stop it and take its report.
-  if (!station_died) {
-    note_dashboard();
-    station.signal(SIGTERM);
-    const auto drained =
-        std::chrono::milliseconds(static_cast<long>(config_.station_drain_timeout_s * 1000));
-    auto status = station.wait_for(drained);
-    if (!status) {
-      station.signal(SIGKILL);
-      station.wait_for(milliseconds(5000));
-      result.failures.push_back(
-          "ground_station did not stop within station_drain_timeout_s; killed");
-    } else if (!status->ok()) {
-      result.failures.push_back(failure_line(station, *status));
-    }
+// Each process's figures, the station's report and report.html.
+void MissionRunner::collect(const MissionPlan& plan, Processes& p, MissionResult& result) {
+  for (std::size_t i = 0; i < p.agents.size(); ++i) {
+    const auto status = p.agents[i]->poll();
+    result.agents.push_back({plan.robot_ids[i], (plan.run_dir / plan.robot_ids[i]).string(),
+                             status ? status->cpu_s : 0.0});
   }
-  for (std::size_t i = 0; i < agents.size(); ++i) {
-    const auto status = agents[i]->poll();
-    result.agents.push_back(
-        {robot_ids[i], (run_dir / robot_ids[i]).string(), status ? status->cpu_s : 0.0});
-  }
-  const auto station_status = station.poll();
+  const fs::path station_dir = plan.run_dir / "station";
+  const auto station_status = p.station->poll();
   result.station = {"ground_station", station_dir.string(),
                     station_status ? station_status->cpu_s : 0.0};
   std::ifstream report(station_dir / "report.txt");
   std::stringstream table;
   table << report.rdbuf();
   result.report_table = table.str();
-  write_report_html(run_dir, result);
+  write_report_html(plan.run_dir, result);
   result.ok = result.failures.empty();
-  return result;
 }
 
 }  // namespace keyfleet::mission

@@ -1,6 +1,7 @@
 #pragma once
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -8,6 +9,7 @@
 #include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/shutdown_signal.hpp"
+#include "keyfleet/mission/child_process.hpp"
 #include "keyfleet/mission/mission_config.hpp"
 
 namespace keyfleet::mission {
@@ -46,6 +48,28 @@ struct MissionHooks {
   std::function<std::vector<std::string>(const std::string& process)> command_prefix;
 };
 
+// What a mission runs, decided before any process starts: its drones, its DDS domain and
+// partition, and each process's config.
+struct MissionPlan {
+  std::filesystem::path run_dir;
+  int domain_id = 0;
+  std::string partition;
+  std::string scenario_dir;  // the scenario replayed, or empty
+  std::vector<std::string> robot_ids;
+  StationConfig station;            // serves robot_ids only
+  std::vector<AgentConfig> agents;  // one per robot id, in the same order
+};
+
+// The plan of a mission of `robot_ids` in `run_dir` (no file is written): the station serves
+// those robots only; each agent replays its scenario drone (when `scenario_dir` is given) with
+// its own seed; with `config.security` each process gets its host's bundle under
+// run_dir/security/hosts (fleet_credentials.hpp), else security is off for all; `adjust_agent`
+// (the hooks') last.
+MissionPlan plan_mission(const MissionConfig& config, const std::filesystem::path& run_dir,
+                         std::vector<std::string> robot_ids, const std::string& scenario_dir,
+                         int domain_id, const std::string& partition,
+                         const std::function<void(std::size_t, AgentConfig&)>& adjust_agent = {});
+
 // Runs one mission on this machine: a ground station and N agents as separate processes
 // on a domain id and partition of their own, progress on `progress`, then drains and
 // stops the station and collects its report.
@@ -57,6 +81,20 @@ class MissionRunner {
   void set_hooks(MissionHooks hooks) { hooks_ = std::move(hooks); }
 
  private:
+  struct Processes {
+    std::unique_ptr<ChildProcess> station;
+    std::vector<std::unique_ptr<ChildProcess>> agents;
+  };
+  std::filesystem::path make_run_folder() const;
+  std::vector<std::string> choose_drones(const std::filesystem::path& run_dir,
+                                         std::string& scenario_dir);
+  void write_plan(const MissionPlan& plan);
+  Processes start(const MissionPlan& plan);
+  bool watch(Processes& processes, const MissionPlan& plan, const StopToken& stop,
+             MissionResult& result);
+  void note_dashboard(const std::filesystem::path& station_dir, MissionResult& result);
+  void stop_processes(Processes& processes, bool station_died, MissionResult& result);
+  void collect(const MissionPlan& plan, Processes& processes, MissionResult& result);
   std::vector<std::string> command(const std::string& process, std::vector<std::string> argv) const;
   // report.html from the station's database (and the scenario's ground truth).
   void write_report_html(const std::filesystem::path& run_dir, MissionResult& result) const;
