@@ -18,13 +18,6 @@ namespace {
 using std::chrono::milliseconds;
 using std::chrono::seconds;
 
-std::string read_file(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 class BadInput : public FleetFixture {
  protected:
   // Runs robot_agent with `args`, returns (exit status, everything it printed).

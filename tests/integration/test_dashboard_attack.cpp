@@ -28,13 +28,6 @@ namespace fs = std::filesystem;
 using std::chrono::milliseconds;
 using std::chrono::seconds;
 
-std::string read_file(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 // A connected socket from a loopback address, or -1.
 int connect_from(const std::string& from, int port) {
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);

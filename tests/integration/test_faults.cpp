@@ -47,13 +47,6 @@ class Faults : public FleetFixture {
   }
 };
 
-std::string read_file(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 // The agent is SIGKILLed mid-flight and started again on the same outbox: every keyframe it had
 // made before is delivered, the new ones continue its numbering (no number used twice, no
 // conflict at the station), and the other drones deliver exactly what they made.

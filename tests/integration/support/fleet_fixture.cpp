@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iostream>
 #include <random>
+#include <sstream>
 
 #include "keyfleet/common/sqlite.hpp"
 
@@ -37,6 +38,13 @@ void expect_stored_exactly(const std::vector<StoredKeyframe>& stored, const std:
     EXPECT_TRUE(mine[seq]->image == expected[seq])
         << robot << " keyframe " << seq << " differs from what the agent encoded";
   }
+}
+
+std::string read_file(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
 }
 
 void FleetFixture::finish_mission(std::vector<std::unique_ptr<mission::ChildProcess>>& agents,

@@ -21,6 +21,9 @@ namespace keyfleet::testing {
 // Polls `condition` until it holds or `timeout` passes (no fixed sleeps).
 bool wait_until(const std::function<bool()>& condition, std::chrono::milliseconds timeout);
 
+// The whole file as text; "" when it cannot be read (not there yet).
+std::string read_file(const std::filesystem::path& path);
+
 struct StoredKeyframe {
   std::string robot_id;
   std::uint64_t sequence_number = 0;
