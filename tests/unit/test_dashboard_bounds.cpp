@@ -180,6 +180,10 @@ TEST_F(DashboardBounds, OversizedHeadsAndBodiesAreRefusedUnread) {
   RawClient chunked(server->port());
   chunked.send("POST / HTTP/1.1\r\nHost: 127.0.0.1\r\nTransfer-Encoding: chunked\r\n\r\n");
   EXPECT_EQ(chunked.read(milliseconds(3000)).rfind("HTTP/1.1 413", 0), 0u);
+  // Only GET is answered.
+  RawClient head_request(server->port());
+  head_request.send("HEAD /api/summary HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n");
+  EXPECT_EQ(head_request.read(milliseconds(3000), "\r\n\r\n").rfind("HTTP/1.1 405", 0), 0u);
   EXPECT_EQ(summary_status(server->port()), 200);
 }
 

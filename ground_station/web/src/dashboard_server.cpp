@@ -280,7 +280,7 @@ HttpResponse DashboardServer::answer(const HttpRequest& req) {
     return error_answer(403, "this dashboard answers to localhost, 127.0.0.1 or [::1] only");
   if (!authorised(req.param("token"), req.authorization))
     return error_answer(401, "this dashboard needs its token: open it with ?token=...");
-  if (req.method != "GET" && req.method != "HEAD")
+  if (req.method != "GET")
     return error_answer(405, "this dashboard only answers GET");
   const std::string path = req.path == "/" ? "/dashboard.html" : req.path;
   for (const auto& [asset, content] : page_assets())
