@@ -188,8 +188,11 @@ TEST(TextRegionsRoundTrip, ThroughTheStationStoreAndAnOlderDatabaseIsMigrated) {
   const std::string path = dir.file("station.sqlite");
   { station::KeyframeStore created(path); }
   {
-    SqliteDb db(path);  // as a database written before text regions: without the column
+    // As a database written before text regions, and before schema versions: without the
+    // column, user_version 0.
+    SqliteDb db(path);
     db.exec("ALTER TABLE keyframes DROP COLUMN text_regions");
+    db.exec("PRAGMA user_version = 0");
   }
   station::KeyframeStore store(path);
   Keyframe k = test::make_valid_keyframe("drone_0", 1);
