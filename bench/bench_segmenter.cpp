@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <string>
 
+#include "keyfleet/vision/cpu_class.hpp"
 #include "keyfleet/vision/dnn_layers.hpp"
 #include "keyfleet/vision/model_files.hpp"
 #include "keyfleet/vision/text_segmenter.hpp"
@@ -50,4 +51,12 @@ BENCHMARK(BM_Segment)
 
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  // The figures depend on the CPU class (AVX2, AVX-512, AVX512-BF16): every report says which.
+  benchmark::AddCustomContext("cpu_class", keyfleet::vision::cpu_class_line());
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

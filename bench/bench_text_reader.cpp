@@ -33,6 +33,7 @@
 
 #include "keyfleet/common/process_tuning.hpp"
 #include "keyfleet/station/text/text_reader.hpp"
+#include "keyfleet/vision/cpu_class.hpp"
 #include "keyfleet/vision/dnn_layers.hpp"
 #include "keyfleet/vision/model_files.hpp"
 #include "ppocr_detector.hpp"
@@ -196,8 +197,7 @@ void BM_PpocrDbPostprocess(benchmark::State& state) {
   const cv::Mat prob = cv::Mat(input, CV_32F, const_cast<float*>(out.ptr<float>())).clone();
   std::size_t lines = 0;
   for (auto _ : state) {
-    lines =
-        keyfleet::vision::db_postprocess(prob, fitted, scale, c->image.size(), {}).size();
+    lines = keyfleet::vision::db_postprocess(prob, fitted, scale, c->image.size(), {}).size();
     benchmark::DoNotOptimize(lines);
   }
   state.counters["lines"] = double(lines);
@@ -328,6 +328,8 @@ int main(int argc, char** argv) {
   keyfleet::limit_openmp_to_one_thread(argv);
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  // The figures depend on the CPU class (AVX2, AVX-512): every report says which.
+  benchmark::AddCustomContext("cpu_class", keyfleet::vision::cpu_class_line());
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   return 0;

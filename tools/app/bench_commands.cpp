@@ -11,6 +11,8 @@
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/shutdown_signal.hpp"
 #include "keyfleet/mission/fleet_bench.hpp"
+#include "keyfleet/mission/mission_config.hpp"
+#include "keyfleet/vision/cpu_class.hpp"
 
 namespace keyfleet::commands {
 namespace {
@@ -37,6 +39,12 @@ int run_fleet(FleetOptions& o) {
   const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
   const std::string table = mission::format_fleet_table(runs, cores);
   std::printf("\n%s", table.c_str());
+  // The figures depend on the CPU class: say which, and which kernels the agents' model ran.
+  const bool bfloat16 =
+      load_mission_config(o.bench.mission_config).agent.selector.semantic.bfloat16;
+  std::printf("%s\nthe agents' semantic model: %s (semantic.bfloat16: %s)\n",
+              vision::cpu_class_line().c_str(), vision::segmenter_kernels(bfloat16).c_str(),
+              bfloat16 ? "true" : "false");
   for (const auto& r : runs)
     for (const auto& f : r.failures) std::fprintf(stderr, "N=%d: %s\n", r.drones, f.c_str());
   return shutdown.stop.requested() ? 1 : 0;
