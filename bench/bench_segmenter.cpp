@@ -9,7 +9,7 @@
 #include <cstdlib>
 #include <string>
 
-#include "keyfleet/vision/cpu_class.hpp"
+#include "cpu_class_main.hpp"
 #include "keyfleet/vision/dnn_layers.hpp"
 #include "keyfleet/vision/model_files.hpp"
 #include "keyfleet/vision/text_segmenter.hpp"
@@ -52,11 +52,5 @@ BENCHMARK(BM_Segment)
 }  // namespace
 
 int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  // The figures depend on the CPU class (AVX2, AVX-512, AVX512-BF16): every report says which.
-  benchmark::AddCustomContext("cpu_class", keyfleet::vision::cpu_class_line());
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
+  return keyfleet::bench::run_benchmarks_with_cpu_class(argc, argv);
 }

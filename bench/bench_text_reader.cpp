@@ -31,9 +31,9 @@
 #include <string>
 #include <vector>
 
+#include "cpu_class_main.hpp"
 #include "keyfleet/common/process_tuning.hpp"
 #include "keyfleet/station/text/text_reader.hpp"
-#include "keyfleet/vision/cpu_class.hpp"
 #include "keyfleet/vision/dnn_layers.hpp"
 #include "keyfleet/vision/model_files.hpp"
 #include "ppocr_detector.hpp"
@@ -326,11 +326,5 @@ BENCHMARK(BM_PpocrRecognizerOverhead)
 int main(int argc, char** argv) {
   // As the station: Tesseract's OpenMP threads bounded to one (OMP_THREAD_LIMIT, re-executes).
   keyfleet::limit_openmp_to_one_thread(argv);
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  // The figures depend on the CPU class (AVX2, AVX-512): every report says which.
-  benchmark::AddCustomContext("cpu_class", keyfleet::vision::cpu_class_line());
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
+  return keyfleet::bench::run_benchmarks_with_cpu_class(argc, argv);
 }

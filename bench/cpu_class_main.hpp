@@ -1,0 +1,19 @@
+#pragma once
+// The body of a benchmark program's main whose figures depend on the CPU class (AVX2, AVX-512,
+// AVX512-BF16): every report carries a `cpu_class` line saying which.
+#include <benchmark/benchmark.h>
+
+#include "keyfleet/vision/cpu_class.hpp"
+
+namespace keyfleet::bench {
+
+inline int run_benchmarks_with_cpu_class(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::AddCustomContext("cpu_class", vision::cpu_class_line());
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
+
+}  // namespace keyfleet::bench
