@@ -127,8 +127,8 @@ int main(int argc, char** argv) {
   for (const auto& mode : modes) {
     TextReadingConfig config;
     config.engine = "ppocr";
-    config.ppocr_detector_size = detector;
-    config.region_hints = mode;
+    config.ppocr.detector_size = detector;
+    config.ppocr.region_hints = mode;
     config.threads = 1;
     const auto reader = station::make_text_reader(config);
     std::set<int> read_signs;

@@ -229,7 +229,7 @@ TEST(ConfigBadValue, PpocrSettingsAreChecked) {
     return "analysis:\n  text:\n    " + line + "\n";
   };
   EXPECT_EQ(parse_station_config(text("ppocr_detector_size: 1280x736"), "station.yaml")
-                .analysis.text.ppocr_detector_size,
+                .analysis.text.ppocr.detector_size,
             "1280x736");
   for (const std::string bad : {"650x480", "640", "640x480x3", "0x480", "8192x480"}) {
     const std::string message = config_error_of(

@@ -167,7 +167,7 @@ TEST(PpocrCropQuad, RejectsDegenerateAndAbsurdQuads) {
 
 TEST(PpocrReaderStartup, MissingModelFolderNamesTheFile) {
   auto config = ppocr_config();
-  config.ppocr_models = "/nonexistent/ppocr";
+  config.ppocr.models = "/nonexistent/ppocr";
   try {
     make_text_reader(config);
     FAIL() << "no StartupError";
@@ -181,13 +181,13 @@ TEST(PpocrReaderStartup, MissingModelFolderNamesTheFile) {
 
 TEST(PpocrReaderStartup, BadDetectorSizeOrThresholdIsRefused) {
   auto config = ppocr_config();
-  config.ppocr_detector_size = "650x480";
+  config.ppocr.detector_size = "650x480";
   EXPECT_THROW(make_text_reader(config), StartupError);
-  config.ppocr_detector_size = "640";
+  config.ppocr.detector_size = "640";
   EXPECT_THROW(make_text_reader(config), StartupError);
   config = ppocr_config();
-  config.ppocr_models = "/nonexistent/ppocr";
-  config.ppocr_box_threshold = 1.5;
+  config.ppocr.models = "/nonexistent/ppocr";
+  config.ppocr.box_threshold = 1.5;
   EXPECT_THROW(make_text_reader(config), StartupError);
 }
 
@@ -198,7 +198,7 @@ TEST(PpocrReaderStartup, MissingRecogniserFileIsNamed) {
     if (entry.path().filename() != "ppocr_rec_w320.onnx")
       fs::copy_file(entry.path(), dir.path() / entry.path().filename());
   auto config = ppocr_config();
-  config.ppocr_models = dir.path().string();
+  config.ppocr.models = dir.path().string();
   try {
     make_text_reader(config);
     FAIL() << "no StartupError";

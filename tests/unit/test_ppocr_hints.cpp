@@ -81,8 +81,8 @@ bool have_models() {
 TextReadingConfig hinted(const std::string& mode) {
   TextReadingConfig config;
   config.engine = "ppocr";
-  config.ppocr_detector_size = "1280x736";
-  config.region_hints = mode;
+  config.ppocr.detector_size = "1280x736";
+  config.ppocr.region_hints = mode;
   return config;
 }
 

@@ -102,8 +102,8 @@ TEST(TextRegionsConfig, LoadedFromYamlAndCheckedWhereTheyAre) {
       "region_hint_detector_size: 320x256}\n",
       "s.yaml");
   EXPECT_EQ(station.limits.max_text_regions, 5);
-  EXPECT_EQ(station.analysis.text.region_hints, "only");
-  EXPECT_EQ(station.analysis.text.region_hint_detector_size, "320x256");
+  EXPECT_EQ(station.analysis.text.ppocr.region_hints, "only");
+  EXPECT_EQ(station.analysis.text.ppocr.region_hint_detector_size, "320x256");
   try {
     parse_station_config("analysis:\n  text: {region_hints: sometimes}\n", "s.yaml");
     ADD_FAILURE() << "accepted region_hints: sometimes";

@@ -266,18 +266,18 @@ TEST(TextReaderFactory, StartupErrors) {
   EXPECT_THROW(make_text_reader(params), StartupError);
   params = TextReadingConfig{};
   params.engine = "tesseract";
-  params.tessdata_dir = "/nonexistent/tessdata";
+  params.tesseract.tessdata_dir = "/nonexistent/tessdata";
   EXPECT_THROW(make_text_reader(params), StartupError);
   params = TextReadingConfig{};
   params.engine = "tesseract";
-  params.language = "xx_missing";
+  params.tesseract.language = "xx_missing";
   EXPECT_THROW(make_text_reader(params), StartupError);
   params = TextReadingConfig{};
   params.min_confidence = 2;
   EXPECT_THROW(make_text_reader(params), StartupError);
   params = TextReadingConfig{};
   params.engine = "mininet+tesseract";
-  params.segmenter_model = "/nonexistent/model.onnx";
+  params.mininet.segmenter_model = "/nonexistent/model.onnx";
   EXPECT_THROW(make_text_reader(params), StartupError);
 }
 
@@ -289,7 +289,7 @@ TEST(TextReaderFactory, CorruptTraineddataIsAStartupError) {
   }
   TextReadingConfig params;
   params.engine = "tesseract";
-  params.tessdata_dir = dir.path().string();
+  params.tesseract.tessdata_dir = dir.path().string();
   EXPECT_THROW(make_text_reader(params), StartupError);
 }
 

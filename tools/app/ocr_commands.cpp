@@ -178,36 +178,36 @@ void add_reader_options(CLI::App& command, OcrOptions& o) {
   command.add_option("--min-word-height", o.params.min_word_height, "drop lower words (px)");
   command.add_option("--min-long-side", o.params.min_long_side,
                      "upscale smaller images to this longer side (px, 0 = never)");
-  command.add_option("--segmenter-width", o.params.segmenter_widths,
+  command.add_option("--segmenter-width", o.params.mininet.segmenter_widths,
                      "MiniNet input widths for mininet+tesseract (multiples of 64)");
-  command.add_option("--line-height", o.params.region_line_height,
+  command.add_option("--line-height", o.params.tesseract.line_height,
                      "px a word crop or detected line is scaled to before reading");
-  command.add_option("--thresholding", o.params.thresholding_method,
+  command.add_option("--thresholding", o.params.tesseract.thresholding_method,
                      "Tesseract binarisation: 0 Otsu, 1 tiled Otsu, 2 Sauvola");
-  command.add_option("--tessdata", o.params.tessdata_dir, "Tesseract data folder");
-  command.add_option("--ppocr-detector-size", o.params.ppocr_detector_size,
+  command.add_option("--tessdata", o.params.tesseract.tessdata_dir, "Tesseract data folder");
+  command.add_option("--ppocr-detector-size", o.params.ppocr.detector_size,
                      "ppocr detector input: auto, or WxH (a converted size: 640x480 or 1280x736)");
   command
-      .add_option("--ppocr-binary-threshold", o.params.ppocr_binary_threshold,
+      .add_option("--ppocr-binary-threshold", o.params.ppocr.binary_threshold,
                   "ppocr: text probability of a text pixel (0..1)")
       ->check(CLI::Range(0.0, 1.0));
   command
-      .add_option("--ppocr-box-threshold", o.params.ppocr_box_threshold,
+      .add_option("--ppocr-box-threshold", o.params.ppocr.box_threshold,
                   "ppocr: min mean text probability of a kept line (0..1)")
       ->check(CLI::Range(0.0, 1.0));
   command
-      .add_option("--ppocr-unclip-ratio", o.params.ppocr_unclip_ratio,
+      .add_option("--ppocr-unclip-ratio", o.params.ppocr.unclip_ratio,
                   "ppocr: how far line boxes are grown (0..10)")
       ->check(CLI::Range(0.0, 10.0));
   command
-      .add_option("--ppocr-space-probability", o.params.ppocr_space_probability,
+      .add_option("--ppocr-space-probability", o.params.ppocr.space_probability,
                   "ppocr: split words where a space is this likely (0 = where it wins)")
       ->check(CLI::Range(0.0, 1.0));
-  command.add_option("--cut-word-margin", o.params.cut_word_margin,
+  command.add_option("--cut-word-margin", o.params.ppocr.cut_word_margin,
                      "ppocr: drop words this close to the image's edge (px, -1 = keep)");
   command.add_option("--lexicon", o.params.lexicon,
                      "word list to correct readings against (one word a line; empty = none)");
-  command.add_option("--ppocr-latin-only", o.params.ppocr_latin_only,
+  command.add_option("--ppocr-latin-only", o.params.ppocr.latin_only,
                      "ppocr: read Latin letters, digits and punctuation only (true/false)");
 }
 

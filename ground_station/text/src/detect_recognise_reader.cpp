@@ -35,16 +35,17 @@ std::vector<cv::Rect> merge_overlapping(std::vector<cv::Rect> boxes) {
 
 DetectRecogniseReader::DetectRecogniseReader(const TextReadingConfig& params)
     : params_(params),
-      model_path_(vision::locate_model(params.segmenter_model, "segmenter model")),
-      ocr_(params.tessdata_dir, params.language, params.thresholding_method) {
-  if (params.segmenter_widths.empty())
+      model_path_(vision::locate_model(params.mininet.segmenter_model, "segmenter model")),
+      ocr_(params.tesseract.tessdata_dir, params.tesseract.language,
+           params.tesseract.thresholding_method) {
+  if (params.mininet.segmenter_widths.empty())
     throw StartupError("text reader: no segmenter widths for mininet+tesseract");
-  for (int w : params.segmenter_widths)
+  for (int w : params.mininet.segmenter_widths)
     if (w < 64 || w % 64 != 0)
       throw StartupError("text reader: segmenter width " + std::to_string(w) +
                          " is not a positive multiple of 64");
   // Loads and checks the model now (16:9, the ICDAR photos' shape) so a bad one fails here.
-  for (int w : params.segmenter_widths) segmenter_for(w, cv::Size(16, 9));
+  for (int w : params.mininet.segmenter_widths) segmenter_for(w, cv::Size(16, 9));
 }
 
 vision::DnnTextSegmenter& DetectRecogniseReader::segmenter_for(int w, cv::Size image_size) {
@@ -58,7 +59,7 @@ vision::DnnTextSegmenter& DetectRecogniseReader::segmenter_for(int w, cv::Size i
 std::vector<cv::Rect> DetectRecogniseReader::regions(const cv::Mat& bgr) {
   if (bgr.empty() || bgr.type() != CV_8UC3 || bgr.cols < 8 || bgr.rows < 8) return {};
   std::vector<cv::Rect> boxes;
-  for (int w : params_.segmenter_widths) {
+  for (int w : params_.mininet.segmenter_widths) {
     auto at = regions_at(w, bgr);
     boxes.insert(boxes.end(), at.begin(), at.end());
   }
@@ -90,7 +91,7 @@ std::vector<cv::Rect> DetectRecogniseReader::regions_at(int width, const cv::Mat
                      stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
     const int x = int(m.x * sx), y = int(m.y * sy);
     const int w = int(std::ceil(m.width * sx)), h = int(std::ceil(m.height * sy));
-    const int pad = int(std::ceil(float(params_.region_padding) * h)) + 2;
+    const int pad = int(std::ceil(float(params_.mininet.region_padding) * h)) + 2;
     boxes.push_back(cv::Rect(x - pad, y - pad, w + 2 * pad, h + 2 * pad) & bounds);
   }
   return boxes;
@@ -114,7 +115,7 @@ std::vector<ReadWord> DetectRecogniseReader::read(const cv::Mat& image) {
     // Tall regions hold several lines: read them as sparse text at the whole image's scale.
     std::vector<ReadWord> words;
     if (crop || box.height * 2 < box.width) {
-      words = read_line(ocr_, grey, box, params_.region_line_height);
+      words = read_line(ocr_, grey, box, params_.tesseract.line_height);
     } else {
       const double scale = reading_scale(grey.size(), params_.min_long_side, params_.max_long_side);
       words = ocr_.words(rescaled(grey(box), scale), TesseractOcr::Layout::kSparseText);

@@ -33,7 +33,7 @@ cv::Size detector_size(const std::string& text) {
 std::string locate(const TextReadingConfig& params, const std::string& file,
                    const std::string& what) {
   try {
-    return vision::locate_model(params.ppocr_models + "/" + file, what);
+    return vision::locate_model(params.ppocr.models + "/" + file, what);
   } catch (const StartupError& e) {
     throw StartupError(std::string(e.what()) +
                        "; scripts/fetch_ppocr.sh downloads and converts the ppocr models");
@@ -41,21 +41,21 @@ std::string locate(const TextReadingConfig& params, const std::string& file,
 }
 
 DbParams db_params(const TextReadingConfig& params) {
-  for (const double v : {params.ppocr_binary_threshold, params.ppocr_box_threshold})
+  for (const double v : {params.ppocr.binary_threshold, params.ppocr.box_threshold})
     if (!(v >= 0 && v <= 1))
       throw StartupError("text reader: ppocr thresholds must be within 0..1");
-  if (!(params.ppocr_unclip_ratio >= 0 && params.ppocr_unclip_ratio <= 10))
+  if (!(params.ppocr.unclip_ratio >= 0 && params.ppocr.unclip_ratio <= 10))
     throw StartupError("text reader: ppocr_unclip_ratio must be within 0..10");
   DbParams db;
-  db.binary_threshold = float(params.ppocr_binary_threshold);
-  db.box_threshold = float(params.ppocr_box_threshold);
-  db.unclip_ratio = float(params.ppocr_unclip_ratio);
+  db.binary_threshold = float(params.ppocr.binary_threshold);
+  db.box_threshold = float(params.ppocr.box_threshold);
+  db.unclip_ratio = float(params.ppocr.unclip_ratio);
   return db;
 }
 
 std::vector<PpocrDetector> make_detectors(const TextReadingConfig& params) {
-  std::vector<std::string> sizes = {params.ppocr_detector_size};
-  if (params.ppocr_detector_size == "auto")
+  std::vector<std::string> sizes = {params.ppocr.detector_size};
+  if (params.ppocr.detector_size == "auto")
     sizes.assign(std::begin(kFetchedDetectorSizes), std::end(kFetchedDetectorSizes));
   std::vector<PpocrDetector> detectors;
   for (const auto& size : sizes)
@@ -72,10 +72,10 @@ PpocrRecognizer make_recognizer(const TextReadingConfig& params) {
   for (const int width : kRecogniserWidths)
     files[width] =
         locate(params, "ppocr_rec_w" + std::to_string(width) + ".onnx", "ppocr recogniser");
-  if (!(params.ppocr_space_probability >= 0 && params.ppocr_space_probability <= 1))
+  if (!(params.ppocr.space_probability >= 0 && params.ppocr.space_probability <= 1))
     throw StartupError("text reader: ppocr_space_probability must be within 0..1");
   return PpocrRecognizer(files, locate(params, "ppocr_keys_v1.txt", "ppocr character list"),
-                         {params.ppocr_latin_only, float(params.ppocr_space_probability)});
+                         {params.ppocr.latin_only, float(params.ppocr.space_probability)});
 }
 
 float quad_area(const TextQuad& quad) {
@@ -84,13 +84,13 @@ float quad_area(const TextQuad& quad) {
 
 // The detector of the mosaics of hinted regions (ppocr_region_hints.cpp); null for "off".
 std::unique_ptr<PpocrDetector> make_hint_detector(const TextReadingConfig& params) {
-  if (params.region_hints == "off") return nullptr;
-  if (params.region_hints != "only" && params.region_hints != "first")
-    throw StartupError("text reader: region_hints '" + params.region_hints +
+  if (params.ppocr.region_hints == "off") return nullptr;
+  if (params.ppocr.region_hints != "only" && params.ppocr.region_hints != "first")
+    throw StartupError("text reader: region_hints '" + params.ppocr.region_hints +
                        "' is not off, only or first");
-  const std::string file = "ppocr_det_" + params.region_hint_detector_size + ".onnx";
+  const std::string file = "ppocr_det_" + params.ppocr.region_hint_detector_size + ".onnx";
   return std::make_unique<PpocrDetector>(locate(params, file, "ppocr region-hint detector"),
-                                         detector_size(params.region_hint_detector_size),
+                                         detector_size(params.ppocr.region_hint_detector_size),
                                          db_params(params));
 }
 
@@ -136,7 +136,7 @@ std::vector<ReadWord> PpocrReader::read_lines(const cv::Mat& image, std::vector<
   }
   const cv::Rect frame(0, 0, image.cols, image.rows);
   const bool crop = std::max(image.cols, image.rows) < kMaxCropLongSide;
-  const int margin = crop ? -1 : params_.cut_word_margin;
+  const int margin = crop ? -1 : params_.ppocr.cut_word_margin;
   std::vector<ReadWord> words;
   for (const auto& quad : lines) {
     const auto line = recognizer_.recognize(image, quad);

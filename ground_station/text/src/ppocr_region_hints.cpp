@@ -98,8 +98,9 @@ std::vector<ReadWord> PpocrReader::read_with_hints(const cv::Mat& bgr,
   const cv::Size mosaic(int(small.width / scale), int(small.height / scale));
   const std::size_t max_mosaics =
       std::max<std::size_t>(1, std::size_t(main.area() / std::max(1, small.area())));
-  const auto mosaics = ppocr::pack_hints(hints, image.size(), params_.region_hint_padding, mosaic,
-                                         8, main.area() > small.area() ? max_mosaics - 1 : 1);
+  const auto mosaics =
+      ppocr::pack_hints(hints, image.size(), params_.ppocr.region_hint_padding, mosaic, 8,
+                        main.area() > small.area() ? max_mosaics - 1 : 1);
   if (mosaics.empty()) return read(bgr);
 
   std::vector<TextQuad> lines;
@@ -112,7 +113,7 @@ std::vector<ReadWord> PpocrReader::read_with_hints(const cv::Mat& bgr,
       if (const auto quad = ppocr::quad_in_image(found.quad, placements)) lines.push_back(*quad);
   }
   std::vector<ReadWord> words = read_lines(image, std::move(lines));
-  if (words.empty() && params_.region_hints == "first") return read(bgr);
+  if (words.empty() && params_.ppocr.region_hints == "first") return read(bgr);
   return words;
 }
 

@@ -8,14 +8,17 @@
 namespace keyfleet::station {
 
 TesseractReader::TesseractReader(const TextReadingConfig& params)
-    : params_(params), ocr_(params.tessdata_dir, params.language, params.thresholding_method) {}
+    : params_(params),
+      ocr_(params.tesseract.tessdata_dir, params.tesseract.language,
+           params.tesseract.thresholding_method) {}
 
 std::vector<ReadWord> TesseractReader::read(const cv::Mat& bgr) {
   const cv::Mat grey = vision::to_grey(bgr, 4);
   if (grey.empty()) return {};
   std::vector<ReadWord> words;
   if (std::max(grey.cols, grey.rows) < kMaxCropLongSide) {
-    words = read_line(ocr_, grey, cv::Rect(0, 0, grey.cols, grey.rows), params_.region_line_height);
+    words =
+        read_line(ocr_, grey, cv::Rect(0, 0, grey.cols, grey.rows), params_.tesseract.line_height);
   } else {
     const double scale = reading_scale(grey.size(), params_.min_long_side, params_.max_long_side);
     words = ocr_.words(rescaled(grey, scale), TesseractOcr::Layout::kSparseText);
