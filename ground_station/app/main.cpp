@@ -29,6 +29,7 @@ int main(int argc, char** argv) {
   keyfleet::limit_openmp_to_one_thread(argv);
   keyfleet::block_termination_signals();
   keyfleet::keep_created_files_private();
+  keyfleet::raise_open_file_limit();
   keyfleet::ProcessOptions options;
   CLI::App app{"keyfleet ground station: stores and reports the fleet's keyframes"};
   keyfleet::add_process_options(app, options, "station YAML config");

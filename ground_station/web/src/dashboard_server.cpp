@@ -136,14 +136,8 @@ constexpr std::size_t kReservedDescriptors = 512;
 
 std::size_t connection_budget(std::size_t wanted, const Logger& logger) {
   rlimit limit{};
-  if (getrlimit(RLIMIT_NOFILE, &limit) != 0) return wanted;
-  // The soft limit is often 1,024 beside a far higher hard one: take what is allowed.
-  if (limit.rlim_cur < limit.rlim_max) {
-    rlimit raised = limit;
-    raised.rlim_cur = limit.rlim_max == RLIM_INFINITY ? 65536 : limit.rlim_max;
-    if (setrlimit(RLIMIT_NOFILE, &raised) == 0) limit = raised;
-  }
-  if (limit.rlim_cur == RLIM_INFINITY) return wanted;
+  // The process's soft limit, as its main left it (raise_open_file_limit).
+  if (getrlimit(RLIMIT_NOFILE, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY) return wanted;
   const std::size_t spare = limit.rlim_cur > 2 * kReservedDescriptors
                                 ? limit.rlim_cur - kReservedDescriptors
                                 : limit.rlim_cur / 2;
@@ -280,8 +274,7 @@ HttpResponse DashboardServer::answer(const HttpRequest& req) {
     return error_answer(403, "this dashboard answers to localhost, 127.0.0.1 or [::1] only");
   if (!authorised(req.param("token"), req.authorization))
     return error_answer(401, "this dashboard needs its token: open it with ?token=...");
-  if (req.method != "GET")
-    return error_answer(405, "this dashboard only answers GET");
+  if (req.method != "GET") return error_answer(405, "this dashboard only answers GET");
   const std::string path = req.path == "/" ? "/dashboard.html" : req.path;
   for (const auto& [asset, content] : page_assets())
     if (asset == path) return {200, content_type_of(asset), content, {}, false};

@@ -28,3 +28,12 @@ namespace keyfleet {
 void keep_created_files_private();
 
 }  // namespace keyfleet
+
+namespace keyfleet {
+
+// The soft open-file limit is often 1,024 beside a far higher hard one: takes what is allowed
+// (65,536 where the hard limit is unlimited), so that a station's DDS, databases, reports and
+// dashboard connections have room. Process-wide: call from main.
+void raise_open_file_limit();
+
+}  // namespace keyfleet

@@ -41,8 +41,8 @@ using LiveQueue = std::function<std::optional<AnalysisPool::Counters>()>;
 class DashboardServer {
  public:
   // Opens the database read-only and binds; throws StartupError naming the address or file.
-  // Raises the process's soft open-file limit to its hard one and keeps the connections within
-  // what the limit leaves beside the station's own needs.
+  // Keeps the connections within what the process's open-file limit leaves beside the station's
+  // own needs.
   DashboardServer(const DashboardConfig& config, const std::string& database, LiveQueue live,
                   Logger logger);
   ~DashboardServer();  // stops
