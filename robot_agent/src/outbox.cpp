@@ -9,7 +9,8 @@ namespace keyfleet::agent {
 namespace {
 
 // The outbox's layouts, oldest first: version 1 as the first agents wrote it; the columns of
-// keyframe fields added later come from the field list (types.hpp: text_regions in version 2).
+// keyframe fields added later come from the field list (types.hpp: text_regions in version 2);
+// version 3 adds the sending order's value and held columns.
 std::vector<Migration> migrations() {
   std::vector<Migration> all = {{1,
                                  R"sql(
@@ -36,6 +37,11 @@ CREATE TABLE IF NOT EXISTS pending (
                                  {}}};
   for (auto& m : column_migrations<Keyframe>("pending", RecordStore::kOutbox))
     all.push_back(std::move(m));
+  // Version 3: the order of sending (value, then age; held keyframes last).
+  all.push_back({3, "", [](SqliteDb& db) {
+                   db.add_column_if_missing("pending", "value", "REAL NOT NULL DEFAULT 0");
+                   db.add_column_if_missing("pending", "held", "INTEGER NOT NULL DEFAULT 0");
+                 }});
   return all;
 }
 
@@ -70,16 +76,19 @@ Outbox::Outbox(const std::string& path, const std::string& robot_id, const Outbo
   if (next.step()) next_sequence_ = std::stoull(next.text(0));
 }
 
-void Outbox::add(const Keyframe& k, std::int64_t now_ns) {
+void Outbox::add(const Keyframe& k, std::int64_t now_ns, double value, bool held) {
   if (k.sequence_number != next_sequence_)
     throw std::logic_error("outbox: sequence " + std::to_string(k.sequence_number) +
                            " out of order, expected " + std::to_string(next_sequence_));
   db_.exec("BEGIN");
   try {
-    auto insert = db_.prepare("INSERT INTO pending(created_ns, " + column_list(columns()) +
-                              ") VALUES(:created_ns, " + column_list(columns(), ":") + ")");
+    auto insert =
+        db_.prepare("INSERT INTO pending(created_ns, value, held, " + column_list(columns()) +
+                    ") VALUES(:created_ns, :value, :held, " + column_list(columns(), ":") + ")");
     bind_record(insert, k, RecordStore::kOutbox);
     insert.bind(insert.parameter_index(":created_ns"), now_ns);
+    insert.bind(insert.parameter_index(":value"), value);
+    insert.bind(insert.parameter_index(":held"), static_cast<std::int64_t>(held ? 1 : 0));
     insert.step();
     db_.prepare("INSERT OR REPLACE INTO meta(key, value) VALUES('next_sequence', ?)")
         .bind(1, std::to_string(k.sequence_number + 1))
@@ -130,12 +139,16 @@ std::optional<std::uint64_t> Outbox::renumber(std::uint64_t sequence) {
   return renumbered;
 }
 
-std::vector<Keyframe> Outbox::due_for_resend(std::int64_t now_ns, std::size_t max) {
+std::vector<Keyframe> Outbox::due_for_resend(std::int64_t now_ns, std::size_t max, bool with_held) {
   const auto threshold = now_ns - static_cast<std::int64_t>(bounds_.resend_after_s * 1e9);
-  auto query = db_.prepare("SELECT " + column_list(columns()) +
-                           " FROM pending WHERE last_sent_ns IS NULL OR last_sent_ns <= ? OR "
-                           "last_sent_ns > ? ORDER BY sequence_number LIMIT ?");
-  query.bind(1, threshold).bind(2, now_ns).bind(3, static_cast<std::int64_t>(max));
+  auto query = db_.prepare(
+      "SELECT " + column_list(columns()) +
+      " FROM pending WHERE (last_sent_ns IS NULL OR last_sent_ns <= ? OR last_sent_ns > ?) AND "
+      "(held = 0 OR ?) ORDER BY held, value DESC, sequence_number LIMIT ?");
+  query.bind(1, threshold)
+      .bind(2, now_ns)
+      .bind(3, static_cast<std::int64_t>(with_held ? 1 : 0))
+      .bind(4, static_cast<std::int64_t>(max));
   std::vector<Keyframe> due;
   while (query.step()) {
     Keyframe k;
@@ -157,7 +170,7 @@ std::vector<std::uint64_t> Outbox::evict(std::int64_t now_ns, bool by_age) {
                                      : std::numeric_limits<std::int64_t>::min();
   auto query = db_.prepare(
       "SELECT sequence_number FROM pending WHERE created_ns < ? OR sequence_number NOT IN "
-      "(SELECT sequence_number FROM pending ORDER BY sequence_number DESC LIMIT ?)");
+      "(SELECT sequence_number FROM pending ORDER BY held, sequence_number DESC LIMIT ?)");
   query.bind(1, oldest_allowed).bind(2, static_cast<std::int64_t>(bounds_.max_pending));
   std::vector<std::uint64_t> evicted;
   while (query.step()) evicted.push_back(static_cast<std::uint64_t>(query.int64(0)));
@@ -166,6 +179,18 @@ std::vector<std::uint64_t> Outbox::evict(std::int64_t now_ns, bool by_age) {
 }
 
 int Outbox::schema_version() { return newest_version(migrations()); }
+
+std::uint64_t Outbox::pending_bytes() const {
+  auto query = db_.prepare("SELECT COALESCE(SUM(LENGTH(image)), 0) FROM pending WHERE held = 0");
+  query.step();
+  return static_cast<std::uint64_t>(query.int64(0));
+}
+
+std::uint64_t Outbox::held() const {
+  auto query = db_.prepare("SELECT COUNT(*) FROM pending WHERE held = 1");
+  query.step();
+  return static_cast<std::uint64_t>(query.int64(0));
+}
 
 std::uint64_t Outbox::pending() const {
   auto query = db_.prepare("SELECT COUNT(*) FROM pending");

@@ -320,5 +320,35 @@ TEST_F(OutboxTest, EvictedSequenceCannotBeAcknowledgedAgain) {
   EXPECT_TRUE(outbox.acknowledge(1));
 }
 
+// What matters first: higher value before lower, age among equals, held keyframes only when
+// asked for and after every other; the backlog counts only what is not held.
+TEST_F(OutboxTest, SendsByValueThenAgeAndHeldOnlyWhenAskedFor) {
+  {
+    Outbox outbox(path_, "drone_0", bounds());
+    const double values[] = {0.2, 0.9, 0.5, 0.9, 0.99};
+    for (std::uint64_t s = 0; s < 5; ++s)
+      outbox.add(distinctive_keyframe("drone_0", s), kStart, values[s], /*held=*/s == 4);
+    EXPECT_EQ(sequences(outbox.due_for_resend(kStart, 10)),
+              (std::vector<std::uint64_t>{1, 3, 2, 0}));
+    EXPECT_EQ(sequences(outbox.due_for_resend(kStart, 10, true)),
+              (std::vector<std::uint64_t>{1, 3, 2, 0, 4}));
+    EXPECT_EQ(sequences(outbox.due_for_resend(kStart, 2)), (std::vector<std::uint64_t>{1, 3}));
+    EXPECT_EQ(outbox.held(), 1u);
+    const auto image_bytes = distinctive_keyframe("drone_0", 0).image.size();
+    EXPECT_EQ(outbox.pending_bytes(), 4 * image_bytes);
+  }
+  const Outbox reopened(path_, "drone_0", bounds());  // the order is on disk
+  EXPECT_EQ(reopened.held(), 1u);
+}
+
+TEST_F(OutboxTest, CountBoundGivesUpHeldKeyframesFirst) {
+  Outbox outbox(path_, "drone_0", bounds(2.0, 3));
+  for (std::uint64_t s = 0; s < 5; ++s)
+    outbox.add(distinctive_keyframe("drone_0", s), kStart, 0.5, /*held=*/s == 2 || s == 4);
+  EXPECT_EQ(outbox.evict(kStart), (std::vector<std::uint64_t>{2, 4}));
+  EXPECT_EQ(outbox.held(), 0u);
+  EXPECT_EQ(outbox.pending(), 3u);
+}
+
 }  // namespace
 }  // namespace keyfleet::agent

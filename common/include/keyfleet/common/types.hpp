@@ -88,6 +88,18 @@ struct AgentStats {
   std::uint64_t vslam_keyframe_bytes = 0;
   bool vslam_keyframe_estimated = true;
   std::vector<StageTime> stages;
+  // Link-aware sending (agent link_adaptation): keyframes sent below the richest level, and
+  // selections held back in the outbox by density; the level now, its changes so far, and what
+  // the agent estimates of its link (0 while not known).
+  std::uint64_t keyframes_reduced = 0;
+  std::uint64_t keyframes_thinned = 0;
+  std::uint64_t level_changes = 0;
+  std::uint32_t send_quality = 0;  // JPEG quality of new keyframes
+  double send_scale = 1.0;         // of the camera frame's width and height
+  std::uint32_t send_density = 1;  // one selection in send_density goes at once
+  double link_bytes_per_s = 0;     // acknowledged sample bytes per busy second
+  double link_rtt_ms = 0;          // hand-over to acknowledgement, smoothed
+  double backlog_s = 0;            // unacknowledged bytes over link_bytes_per_s
 };
 
 // AgentStats' fields, once, in wire order: F(member, station), station being the schema version
@@ -111,7 +123,16 @@ struct AgentStats {
   F(stream_all_sampled_frames, 1)      \
   F(vslam_keyframe_bytes, 1)           \
   F(vslam_keyframe_estimated, 1)       \
-  F(stages, 1)
+  F(stages, 1)                         \
+  F(keyframes_reduced, 8)              \
+  F(keyframes_thinned, 8)              \
+  F(level_changes, 8)                  \
+  F(send_quality, 8)                   \
+  F(send_scale, 8)                     \
+  F(send_density, 8)                   \
+  F(link_bytes_per_s, 8)               \
+  F(link_rtt_ms, 8)                    \
+  F(backlog_s, 8)
 
 // kConflict: the station already holds this (robot, sequence) with another image (the robot lost
 // its sequence numbers); the station keeps both, and the robot sends its copy again under a new

@@ -21,20 +21,28 @@ class Outbox {
   Outbox(const std::string& path, const std::string& robot_id, const OutboxConfig& bounds);
 
   std::uint64_t next_sequence() const { return next_sequence_; }
-  // Stores the keyframe; its sequence_number must be next_sequence().
-  void add(const Keyframe& keyframe, std::int64_t now_ns);
+  // Stores the keyframe; its sequence_number must be next_sequence(). `value` orders sending
+  // (higher first, then older first); a `held` keyframe (thinned by the link's density) goes
+  // only when the caller asks for held ones, and is the first the count bound gives up.
+  void add(const Keyframe& keyframe, std::int64_t now_ns, double value = 0, bool held = false);
   void mark_sent(std::uint64_t sequence, std::int64_t now_ns);
   // Removes the keyframe; false when it was not pending (a repeated acknowledgement).
   bool acknowledge(std::uint64_t sequence);
   // Gives a pending keyframe the next sequence number (due for sending at once); returns it, or
   // nothing when `sequence` is not pending.
   std::optional<std::uint64_t> renumber(std::uint64_t sequence);
-  // Oldest first: keyframes last sent at least resend_after_s ago, at most `max`.
-  std::vector<Keyframe> due_for_resend(std::int64_t now_ns, std::size_t max);
+  // Keyframes never sent or last sent at least resend_after_s ago, at most `max`, in sending
+  // order: by value, highest first, then oldest first; held ones only `with_held`, after the
+  // rest.
+  std::vector<Keyframe> due_for_resend(std::int64_t now_ns, std::size_t max,
+                                       bool with_held = false);
   // Applies the bounds (the age one only with `by_age`); returns the sequence numbers given up
-  // on.
+  // on. The count bound keeps the newest keyframes that are not held, then the newest held.
   std::vector<std::uint64_t> evict(std::int64_t now_ns, bool by_age = true);
   std::uint64_t pending() const;
+  // Image bytes of the pending keyframes that are not held: the backlog the link must carry.
+  std::uint64_t pending_bytes() const;
+  std::uint64_t held() const;  // pending keyframes held back
   const std::string& path() const { return db_.path(); }
   // The newest layout of the file (PRAGMA user_version) this build writes; opening an older
   // outbox migrates it, a newer one is refused.
