@@ -320,6 +320,37 @@ void visit(V& v, OutboxConfig& c) {
 }
 
 template <class V>
+void visit(V& v, LinkAdaptationConfig& c) {
+  v.field("enabled", c.enabled);
+  v.field("latency_target_s", c.latency_target_s, between(0.1, 3600.0));
+  v.field("jpeg_qualities", c.jpeg_qualities,
+          Check<std::vector<int>>(
+              [](const std::vector<int>& qualities) {
+                for (std::size_t i = 0; i < qualities.size(); ++i) {
+                  if (qualities[i] < 1 || qualities[i] > 100) return std::string("must be 1..100");
+                  if (i > 0 && qualities[i] >= qualities[i - 1]) return std::string("must fall");
+                }
+                return std::string();
+              },
+              "falling, each 1..100"));
+  v.field("scales", c.scales,
+          Check<std::vector<double>>(
+              [](const std::vector<double>& scales) {
+                for (std::size_t i = 0; i < scales.size(); ++i) {
+                  if (!(scales[i] >= 0.1 && scales[i] < 1.0))
+                    return std::string("must be at least 0.1 and below 1");
+                  if (i > 0 && scales[i] >= scales[i - 1]) return std::string("must fall");
+                }
+                return std::string();
+              },
+              "falling, each in [0.1, 1)"));
+  v.field("max_density", c.max_density, between(1, 16));
+  v.field("utilisation", c.utilisation, between(0.1, 1.0));
+  v.field("raise_after_s", c.raise_after_s, between(0.0, 3600.0));
+  v.field("estimator_window_s", c.estimator_window_s, between(0.5, 3600.0));
+}
+
+template <class V>
 void visit(V& v, AgentConfig& c) {
   v.field("robot_id", c.robot_id, robot_id_check());
   v.section("source", c.source);
@@ -327,6 +358,7 @@ void visit(V& v, AgentConfig& c) {
   v.section("codec", c.codec);
   v.section("ledger", c.ledger);
   v.section("outbox", c.outbox);
+  v.section("link_adaptation", c.link_adaptation);
   v.section("dds", c.dds);
   v.field("stats_period_s", c.stats_period_s, positive());
   v.field("wait_for_station_s", c.wait_for_station_s, at_least(0.0));

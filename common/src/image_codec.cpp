@@ -13,9 +13,13 @@ JpegCodec::JpegCodec(int quality) : quality_(quality) {
 }
 
 std::vector<std::uint8_t> JpegCodec::encode(const cv::Mat& image) const {
+  return encode_at_quality(image, quality_);
+}
+
+std::vector<std::uint8_t> JpegCodec::encode_at_quality(const cv::Mat& image, int quality) const {
   std::vector<std::uint8_t> bytes;
-  if (encode_jpeg_bgr(image, quality_, bytes)) return bytes;  // BGR: no RGB copy on the way
-  cv::imencode(".jpg", image, bytes, {cv::IMWRITE_JPEG_QUALITY, quality_});
+  if (encode_jpeg_bgr(image, quality, bytes)) return bytes;  // BGR: no RGB copy on the way
+  cv::imencode(".jpg", image, bytes, {cv::IMWRITE_JPEG_QUALITY, quality});
   return bytes;
 }
 

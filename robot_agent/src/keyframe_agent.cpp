@@ -12,7 +12,8 @@ KeyframeAgent::KeyframeAgent(const AgentConfig& config, std::unique_ptr<Keyframe
       link_(link),
       clock_(clock),
       logger_(std::move(logger)),
-      ledger_(config.ledger.baseline_sample_every) {}
+      ledger_(config.ledger.baseline_sample_every),
+      sender_(config.link_adaptation, *codec_, config.codec.jpeg_quality, logger_) {}
 
 Keyframe KeyframeAgent::make_keyframe(const Frame& frame, std::vector<std::uint8_t> image) const {
   Keyframe keyframe;
@@ -38,13 +39,16 @@ const std::vector<std::uint8_t>& KeyframeAgent::encoded(const Frame& frame) {
 }
 
 void KeyframeAgent::observe_link(std::int64_t now_ns) {
-  if (link_.matched_stations() == 0)
+  const bool matched = link_.matched_stations() > 0;
+  if (!matched)
     matched_since_ns_.reset();
   else if (!matched_since_ns_)
     matched_since_ns_ = now_ns;
+  sender_.station_matched(matched, now_ns);
 }
 
 void KeyframeAgent::process(const Frame& frame, std::int64_t now_ns) {
+  last_now_ns_ = now_ns;
   observe_link(now_ns);
   const SelectorStep step = selector_->push(frame);  // measures its own stages
   // Baselines: what this frame would cost as a sample, measured on the frames sampled
@@ -66,9 +70,15 @@ void KeyframeAgent::finish_stream(std::int64_t now_ns) {
 
 void KeyframeAgent::publish_selection(const Selection& selection, std::int64_t now_ns) {
   Keyframe keyframe;
+  LinkAwareSender::Encoded at_level;
   {
     auto scope = clock_.measure("encode");
-    keyframe = make_keyframe(selection.frame, encoded(selection.frame));
+    at_level = sender_.encode(
+        selection.frame.image, selection.text_regions, now_ns, outbox_.pending_bytes(),
+        [&]() -> const std::vector<std::uint8_t>& { return encoded(selection.frame); });
+    keyframe = make_keyframe(selection.frame, std::move(at_level.image));
+    keyframe.width = at_level.width;
+    keyframe.height = at_level.height;
   }
   keyframe.sequence_number = outbox_.next_sequence();
   keyframe.vslam_keyframe_index = selection.vslam_keyframe_index;
@@ -77,10 +87,18 @@ void KeyframeAgent::publish_selection(const Selection& selection, std::int64_t n
   keyframe.quality_score = selection.quality_score;
   keyframe.sharpness_score = selection.sharpness_score;
   keyframe.semantic_score = selection.semantic_score;
-  keyframe.text_regions = selection.text_regions;
+  keyframe.text_regions = std::move(at_level.text_regions);
 
   auto scope = clock_.measure("publish");
-  outbox_.add(keyframe, now_ns);  // durable before it is on the wire
+  const double value =
+      value_(selection.semantic_score, selection.quality_score, selection.frame.pose);
+  outbox_.add(keyframe, now_ns, value, at_level.held);  // durable before it is on the wire
+  if (at_level.held) {
+    never_sent_.insert(keyframe.sequence_number);
+    logger_->debug("keyframe {} (frame {}) held back by the link's density",
+                   keyframe.sequence_number, keyframe.frame_index);
+    return;
+  }
   const PublishResult result = link_.publish(keyframe);
   if (!result.ok) {
     logger_->warn("keyframe {} not sent now ({}); it stays in the outbox for a resend",
@@ -89,6 +107,7 @@ void KeyframeAgent::publish_selection(const Selection& selection, std::int64_t n
     return;
   }
   ledger_.record_sent(result.serialized_bytes);
+  sender_.on_sent(keyframe.sequence_number, result.serialized_bytes, now_ns);
   outbox_.mark_sent(keyframe.sequence_number, now_ns);
   logger_->debug("keyframe {} (frame {}) sent, {} bytes", keyframe.sequence_number,
                  keyframe.frame_index, result.serialized_bytes);
@@ -96,16 +115,19 @@ void KeyframeAgent::publish_selection(const Selection& selection, std::int64_t n
 
 void KeyframeAgent::service(std::int64_t now_ns, std::chrono::milliseconds ack_wait) {
   auto scope = clock_.measure("service");
+  last_now_ns_ = now_ns;
   for (const auto& ack : link_.take_acks(config_.robot_id, ack_wait)) {
     if (ack.status == AckStatus::kConflict) {
       // The station holds this number with another image: ours goes again under a new one.
       if (const auto renumbered = outbox_.renumber(ack.sequence_number)) {
         never_sent_.erase(ack.sequence_number);
+        sender_.forget(ack.sequence_number, now_ns);
         logger_->error("station holds sequence {} with another image: sending ours as {}",
                        ack.sequence_number, *renumbered);
       }
       continue;
     }
+    sender_.on_acked(ack.sequence_number, now_ns);
     const bool was_pending = outbox_.acknowledge(ack.sequence_number);
     if (ack.status == AckStatus::kRejected && was_pending) {
       ++rejected_;
@@ -119,7 +141,10 @@ void KeyframeAgent::service(std::int64_t now_ns, std::chrono::milliseconds ack_w
       now_ns - *matched_since_ns_ > static_cast<std::int64_t>(config_.outbox.max_age_s * 1e9);
   const auto evicted = outbox_.evict(now_ns, by_age);
   if (!evicted.empty()) {
-    for (const auto sequence : evicted) never_sent_.erase(sequence);
+    for (const auto sequence : evicted) {
+      never_sent_.erase(sequence);
+      sender_.forget(sequence, now_ns);
+    }
     ledger_.record_dropped(evicted.size());
     logger_->error(
         "outbox bounds reached: gave up on {} unacknowledged keyframe(s) {}..{} "
@@ -127,17 +152,23 @@ void KeyframeAgent::service(std::int64_t now_ns, std::chrono::milliseconds ack_w
         evicted.size(), evicted.front(), evicted.back(), config_.outbox.max_pending,
         config_.outbox.max_age_s);
   }
+  const std::uint64_t backlog = outbox_.pending_bytes();
+  sender_.update(now_ns, backlog);
   if (link_.matched_stations() > 0) {
     const auto due =
-        outbox_.due_for_resend(now_ns, static_cast<std::size_t>(config_.outbox.resend_batch));
+        outbox_.due_for_resend(now_ns, static_cast<std::size_t>(config_.outbox.resend_batch),
+                               sender_.room_for_held(now_ns, backlog));
     std::size_t written = 0;
     for (const auto& keyframe : due) {
       const PublishResult result = link_.publish(keyframe);
       if (!result.ok) break;  // the writer is busy: try again on the next pass
-      if (never_sent_.erase(keyframe.sequence_number) > 0)
+      if (never_sent_.erase(keyframe.sequence_number) > 0) {
         ledger_.record_sent(result.serialized_bytes);
-      else
+        sender_.on_sent(keyframe.sequence_number, result.serialized_bytes, now_ns);
+      } else {
         ledger_.record_resent(result.serialized_bytes);
+        sender_.on_resent(keyframe.sequence_number);
+      }
       outbox_.mark_sent(keyframe.sequence_number, now_ns);
       ++written;
     }
@@ -154,6 +185,7 @@ AgentStats KeyframeAgent::stats(bool finished, std::int64_t now_ns) const {
   stats.finished = finished;
   ledger_.fill(stats);
   stats.keyframes_pending = outbox_.pending();
+  sender_.fill(stats, last_now_ns_, outbox_.pending_bytes());
   stats.stages = clock_.snapshot();
   return stats;
 }

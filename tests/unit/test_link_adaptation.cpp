@@ -8,8 +8,13 @@
 #include <deque>
 #include <vector>
 
+#include <opencv2/core.hpp>
+
+#include "keyfleet/agent/link_aware_sender.hpp"
 #include "keyfleet/agent/link_estimator.hpp"
 #include "keyfleet/agent/send_controller.hpp"
+#include "keyfleet/common/image_codec.hpp"
+#include "keyfleet/common/logging.hpp"
 
 namespace keyfleet::agent {
 namespace {
@@ -251,6 +256,56 @@ TEST(SendController, OutageGoesToTheCheapestLevelAndRecovers) {
   EXPECT_EQ(trace.levels[45], send_ladder(adaptive(), 85).size() - 1);
   EXPECT_GT(trace.thinned, 0u);  // the cheapest level thins, and says so
   EXPECT_EQ(trace.levels[145], 0u);
+}
+
+}  // namespace
+}  // namespace keyfleet::agent
+
+namespace keyfleet::agent {
+namespace {
+
+// The sender on a real JPEG codec: a slow link takes it to the scaled rung, where the frame and
+// its text regions shrink together and the keyframe costs a fraction of the full one.
+TEST(LinkAwareSender, ASlowLinkScalesTheFrameAndItsTextRegions) {
+  LinkAdaptationConfig config;
+  config.enabled = true;
+  config.jpeg_qualities = {};
+  config.scales = {0.5};
+  config.max_density = 1;
+  JpegCodec codec(85);
+  LinkAwareSender sender(config, codec, 85, keyfleet::null_logger());
+  cv::Mat frame(480, 640, CV_8UC3);
+  cv::randu(frame, 0, 255);
+  const std::vector<TextRegion> regions = {{100, 50, 201, 41}, {600, 440, 40, 40}};
+  const std::vector<std::uint8_t> full = codec.encode(frame);
+  const auto richest = [&]() -> const std::vector<std::uint8_t>& { return full; };
+
+  auto first = sender.encode(frame, regions, 0, 0, richest);
+  EXPECT_FALSE(first.reduced);
+  EXPECT_EQ(first.width, 640u);
+  EXPECT_EQ(first.text_regions, regions);
+  // The link then delivers 10 kB/s while a keyframe a second costs far more.
+  std::uint64_t backlog = 0;
+  for (int i = 0; i < 12; ++i) {
+    sender.on_sent(100 + i, 10'000, i * kSecond);
+    sender.on_acked(100 + i, (i + 1) * kSecond);
+    backlog = full.size() * 3;
+    if (i > 0) (void)sender.encode(frame, regions, i * kSecond, backlog, richest);
+  }
+  const auto reduced = sender.encode(frame, regions, 12 * kSecond, backlog, richest);
+  ASSERT_TRUE(reduced.reduced);
+  EXPECT_EQ(reduced.width, 320u);
+  EXPECT_EQ(reduced.height, 240u);
+  EXPECT_LT(reduced.image.size(), full.size() / 2);
+  ASSERT_EQ(reduced.text_regions.size(), 2u);
+  EXPECT_EQ(reduced.text_regions[0], (TextRegion{50, 25, 101, 21}));   // rounded outwards
+  EXPECT_EQ(reduced.text_regions[1], (TextRegion{300, 220, 20, 20}));  // inside the image
+  AgentStats stats;
+  sender.fill(stats, 12 * kSecond, backlog);
+  EXPECT_EQ(stats.send_scale, 0.5);
+  EXPECT_GE(stats.level_changes, 1u);
+  EXPECT_GE(stats.keyframes_reduced, 1u);
+  EXPECT_NEAR(stats.link_bytes_per_s, 10'000, 500);
 }
 
 }  // namespace

@@ -21,6 +21,12 @@ class ImageCodec {
   virtual ~ImageCodec() = default;
   virtual std::string encoding() const = 0;
   virtual std::vector<std::uint8_t> encode(const cv::Mat& image) const = 0;
+  // At another quality (1..100) than the codec's own, for a sender that fits its link; a codec
+  // without a quality ignores it.
+  virtual std::vector<std::uint8_t> encode_at_quality(const cv::Mat& image, int quality) const {
+    (void)quality;
+    return encode(image);
+  }
   // Never throws: bad bytes give an error, not an exception.
   virtual DecodeResult decode(const std::vector<std::uint8_t>& bytes) const = 0;
 };
@@ -30,6 +36,7 @@ class JpegCodec final : public ImageCodec {
   explicit JpegCodec(int quality);
   std::string encoding() const override { return "jpeg"; }
   std::vector<std::uint8_t> encode(const cv::Mat& image) const override;
+  std::vector<std::uint8_t> encode_at_quality(const cv::Mat& image, int quality) const override;
   DecodeResult decode(const std::vector<std::uint8_t>& bytes) const override;
 
  private:

@@ -99,7 +99,7 @@ struct AgentStats {
   std::uint32_t send_density = 1;  // one selection in send_density goes at once
   double link_bytes_per_s = 0;     // acknowledged sample bytes per busy second
   double link_rtt_ms = 0;          // hand-over to acknowledgement, smoothed
-  double backlog_s = 0;            // unacknowledged bytes over link_bytes_per_s
+  double backlog_s = 0;  // unacknowledged bytes over link_bytes_per_s; -1: none delivered lately
 };
 
 // AgentStats' fields, once, in wire order: F(member, station), station being the schema version

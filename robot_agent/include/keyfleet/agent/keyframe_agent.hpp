@@ -9,6 +9,8 @@
 
 #include "keyfleet/agent/bandwidth_ledger.hpp"
 #include "keyfleet/agent/keyframe_selector.hpp"
+#include "keyfleet/agent/keyframe_value.hpp"
+#include "keyfleet/agent/link_aware_sender.hpp"
 #include "keyfleet/agent/outbox.hpp"
 #include "keyfleet/agent/stage_clock.hpp"
 #include "keyfleet/common/image_codec.hpp"
@@ -18,8 +20,9 @@
 namespace keyfleet::agent {
 
 // The agent's pipeline as synchronous steps, with no threads and no clocks of its own:
-// process() takes one frame through selection, encoding, the outbox and the link;
-// service() handles acknowledgements, retransmissions and the outbox bounds.
+// process() takes one frame through selection, encoding (at the level the link affords), the
+// outbox and the link; service() handles acknowledgements, sends what waits (by value, then
+// age), and applies the outbox bounds. A new keyframe goes at once when the link takes it.
 class KeyframeAgent {
  public:
   KeyframeAgent(const AgentConfig& config, std::unique_ptr<KeyframeSelector> selector,
@@ -56,8 +59,11 @@ class KeyframeAgent {
   StageClock& clock_;
   Logger logger_;
   BandwidthLedger ledger_;
+  LinkAwareSender sender_;
+  KeyframeValue value_;
   std::uint64_t rejected_ = 0;
-  std::set<std::uint64_t> never_sent_;            // in the outbox, first write failed
+  std::set<std::uint64_t> never_sent_;  // in the outbox, first write failed
+  std::int64_t last_now_ns_ = 0;        // the outbox clock's latest time (stats read the link then)
   std::optional<std::int64_t> matched_since_ns_;  // a station matched since, without a break
   // Encodings of recent frames, oldest first; none older than a selection window can reach.
   std::deque<std::pair<std::uint64_t, std::vector<std::uint8_t>>> encodings_;

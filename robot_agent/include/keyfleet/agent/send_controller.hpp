@@ -6,28 +6,9 @@
 #include <vector>
 
 #include "keyfleet/agent/link_estimator.hpp"
+#include "keyfleet/common/config.hpp"
 
 namespace keyfleet::agent {
-
-// How the agent fits what it sends to what its link delivers. The agent keeps the wait of its
-// backlog (unacknowledged bytes over the delivery rate) under latency_target_s by lowering the
-// cost of new keyframes in a stated order: first the JPEG quality (down the jpeg_qualities
-// below codec.jpeg_quality), then the resolution (down `scales`), then the density (only one
-// selection in 2, 3 .. max_density is sent at once; the others wait in the outbox behind every
-// other keyframe, counted as thinned). It raises the cost again one step at a time once the link
-// has carried the richer level's load with room to spare for raise_after_s.
-struct LinkAdaptationConfig {
-  bool enabled = false;
-  double latency_target_s = 3.0;                   // the backlog's wait to stay under
-  std::vector<int> jpeg_qualities = {70, 55, 40};  // below codec.jpeg_quality, falling
-  std::vector<double> scales = {0.75, 0.5};        // of the frame's width and height, falling
-  int max_density = 3;                             // 1 = never thin
-  // Share of the delivery rate the robot plans to use (the rest absorbs what the estimate
-  // misses: retransmissions, stats, a rate that falls).
-  double utilisation = 0.8;
-  double raise_after_s = 4.0;      // room to spare this long before a richer level
-  double estimator_window_s = 10;  // busy seconds of acknowledgements the rate is taken over
-};
 
 // One rung of the ladder, richest first.
 struct SendLevel {

@@ -1,0 +1,72 @@
+#pragma once
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "keyfleet/agent/link_estimator.hpp"
+#include "keyfleet/agent/send_controller.hpp"
+#include "keyfleet/common/image_codec.hpp"
+#include "keyfleet/common/logging.hpp"
+#include "keyfleet/common/types.hpp"
+
+namespace keyfleet::agent {
+
+// The agent's link-aware sending: the estimator fed with what the agent hands over and what the
+// station acknowledges, the controller's level, and the frame encoded at that level (JPEG
+// quality, then the frame scaled down with the text regions scaled with it). With adaptation
+// off it only estimates the link, and every keyframe goes at the richest level.
+class LinkAwareSender {
+ public:
+  LinkAwareSender(const LinkAdaptationConfig& config, const ImageCodec& codec, int jpeg_quality,
+                  Logger logger);
+
+  struct Encoded {
+    std::vector<std::uint8_t> image;
+    std::uint32_t width = 0, height = 0;
+    std::vector<TextRegion> text_regions;  // in the encoded image's pixels
+    bool reduced = false;                  // below the richest level
+    bool held = false;                     // thinned: waits in the outbox behind the rest
+  };
+  // One selection: the level now, and the frame at it. `richest` gives the frame encoded at the
+  // richest level (the agent's cached encoding).
+  Encoded encode(const cv::Mat& frame, const std::vector<TextRegion>& regions, std::int64_t now_ns,
+                 std::uint64_t backlog_bytes,
+                 const std::function<const std::vector<std::uint8_t>&()>& richest);
+
+  void on_sent(std::uint64_t sequence, std::uint64_t bytes, std::int64_t now_ns) {
+    estimator_.on_sent(sequence, bytes, now_ns);
+  }
+  void on_resent(std::uint64_t sequence) { estimator_.on_resent(sequence); }
+  void on_acked(std::uint64_t sequence, std::int64_t now_ns) {
+    estimator_.on_acked(sequence, now_ns);
+  }
+  void forget(std::uint64_t sequence, std::int64_t now_ns) { estimator_.forget(sequence, now_ns); }
+  void station_matched(bool matched, std::int64_t now_ns);
+  // Lets the level follow the link between selections (at most every 200 ms).
+  void update(std::int64_t now_ns, std::uint64_t backlog_bytes);
+  // Held keyframes go when the backlog would wait under a quarter of the target.
+  bool room_for_held(std::int64_t now_ns, std::uint64_t backlog_bytes) const;
+
+  void fill(AgentStats& stats, std::int64_t now_ns, std::uint64_t backlog_bytes) const;
+
+ private:
+  void apply(std::int64_t now_ns, std::uint64_t backlog_bytes);
+  // Every distinct encoding of the ladder, measured on this frame, teaches the controller.
+  void calibrate(const cv::Mat& frame);
+
+  LinkAdaptationConfig config_;
+  const ImageCodec& codec_;
+  Logger logger_;
+  LinkEstimator estimator_;
+  SendController controller_;
+  std::int64_t last_update_ns_ = 0;
+  std::uint64_t selections_ = 0;
+  std::uint64_t reduced_ = 0;
+  std::uint64_t thinned_ = 0;
+  std::uint64_t level_changes_ = 0;
+  cv::Mat scaled_;  // reused for the scaled frame
+};
+
+}  // namespace keyfleet::agent
