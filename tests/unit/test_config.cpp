@@ -5,12 +5,13 @@
 #include <string>
 #include <utility>
 
-#include "keyfleet/common/config.hpp"
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/common/config_error.hpp"
 #include "keyfleet/eval/eval_config.hpp"
 #include "keyfleet/mission/experiment_config.hpp"
 #include "keyfleet/mission/mission_config.hpp"
 #include "keyfleet/scenario/scenario_config.hpp"
+#include "keyfleet/station/station_config.hpp"
 
 namespace keyfleet {
 namespace {
