@@ -15,13 +15,14 @@
 #include <set>
 #include <sstream>
 
-#include "keyfleet/common/config.hpp"
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/common/image_codec.hpp"
 #include "keyfleet/common/process_tuning.hpp"
 #include "keyfleet/common/scenario_truth.hpp"
 #include "keyfleet/eval/metrics.hpp"
 #include "keyfleet/eval/selection_eval.hpp"
 #include "keyfleet/station/text/text_reader.hpp"
+#include "keyfleet/station/text/text_reading_config.hpp"
 #include "keyfleet/vision/model_files.hpp"
 
 namespace {

@@ -12,7 +12,6 @@
 #include <filesystem>
 #include <memory>
 
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/image_codec.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/process_tuning.hpp"
@@ -21,6 +20,7 @@
 #include "keyfleet/station/analysis_pool.hpp"
 #include "keyfleet/station/analysis_setup.hpp"
 #include "keyfleet/station/keyframe_analyzer.hpp"
+#include "keyfleet/station/station_config.hpp"
 
 namespace {
 

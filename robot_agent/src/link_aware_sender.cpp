@@ -1,5 +1,7 @@
 #include "keyfleet/agent/link_aware_sender.hpp"
 
+#include "keyfleet/agent/level_encoding.hpp"
+
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -12,25 +14,6 @@ constexpr std::uint64_t kCalibrateEvery = 30;  // selections between two calibra
 constexpr std::int64_t kUpdatePeriodNs = 200'000'000;
 // Bytes a keyframe sample carries beside its image (ids, scores, pose, region hints, CDR).
 constexpr std::uint64_t kSampleOverhead = 300;
-
-cv::Size scaled_size(const cv::Mat& frame, double scale) {
-  return {std::max(1, static_cast<int>(std::lround(frame.cols * scale))),
-          std::max(1, static_cast<int>(std::lround(frame.rows * scale)))};
-}
-
-std::vector<TextRegion> scale_regions(const std::vector<TextRegion>& regions, double sx, double sy,
-                                      cv::Size size) {
-  std::vector<TextRegion> out;
-  for (const auto& r : regions) {
-    const int x0 = std::clamp(static_cast<int>(std::floor(r.x * sx)), 0, size.width - 1);
-    const int y0 = std::clamp(static_cast<int>(std::floor(r.y * sy)), 0, size.height - 1);
-    const int x1 = std::clamp(static_cast<int>(std::ceil((r.x + r.w) * sx)), x0 + 1, size.width);
-    const int y1 = std::clamp(static_cast<int>(std::ceil((r.y + r.h) * sy)), y0 + 1, size.height);
-    out.push_back({static_cast<std::uint16_t>(x0), static_cast<std::uint16_t>(y0),
-                   static_cast<std::uint16_t>(x1 - x0), static_cast<std::uint16_t>(y1 - y0)});
-  }
-  return out;
-}
 
 }  // namespace
 
@@ -68,17 +51,15 @@ bool LinkAwareSender::room_for_held(std::int64_t now_ns, std::uint64_t backlog_b
   return wait < config_.latency_target_s / 4;
 }
 
-void LinkAwareSender::calibrate(const cv::Mat& frame) {
+void LinkAwareSender::calibrate(const cv::Mat& frame, const std::vector<TextRegion>& regions) {
   const auto& ladder = controller_.ladder();
   for (std::size_t i = 0; i < ladder.size(); ++i) {
     if (i > 0 && ladder[i].jpeg_quality == ladder[i - 1].jpeg_quality &&
         ladder[i].scale == ladder[i - 1].scale)
       continue;  // a density rung: the same encoding as the one above
-    cv::Mat image = frame;
-    if (ladder[i].scale < 1.0)
-      cv::resize(frame, image, scaled_size(frame, ladder[i].scale), 0, 0, cv::INTER_AREA);
-    controller_.on_cost(
-        i, codec_.encode_at_quality(image, ladder[i].jpeg_quality).size() + kSampleOverhead);
+    const EncodedFrame encoded = encode_at_level(frame, regions, ladder[i], config_.text_aware,
+                                                 config_.text_margin_px, codec_);
+    controller_.on_cost(i, encoded.image.size() + kSampleOverhead);
   }
 }
 
@@ -87,37 +68,29 @@ LinkAwareSender::Encoded LinkAwareSender::encode(
     std::uint64_t backlog_bytes, const std::function<const std::vector<std::uint8_t>&()>& richest) {
   Encoded out;
   if (config_.enabled) {
-    if (selections_ % kCalibrateEvery == 0) calibrate(frame);
+    if (selections_ % kCalibrateEvery == 0) calibrate(frame, regions);
     controller_.on_selection(now_ns);
     apply(now_ns, backlog_bytes);
   }
   ++selections_;
   const std::size_t index = controller_.level_index();
   const SendLevel& level = controller_.level();
-  if (index == 0 ||
-      (level.scale == 1.0 && level.jpeg_quality == controller_.ladder()[0].jpeg_quality)) {
+  const SendLevel& richest_level = controller_.ladder()[0];
+  if (level.scale == 1.0 && level.jpeg_quality == richest_level.jpeg_quality) {
     out.image = richest();
     out.width = static_cast<std::uint32_t>(frame.cols);
     out.height = static_cast<std::uint32_t>(frame.rows);
     out.text_regions = regions;
-    if (config_.enabled) controller_.on_cost(index, out.image.size() + kSampleOverhead);
   } else {
-    const cv::Mat* image = &frame;
-    if (level.scale < 1.0) {
-      const cv::Size size = scaled_size(frame, level.scale);
-      cv::resize(frame, scaled_, size, 0, 0, cv::INTER_AREA);
-      image = &scaled_;
-      out.text_regions = scale_regions(regions, double(size.width) / frame.cols,
-                                       double(size.height) / frame.rows, size);
-    } else {
-      out.text_regions = regions;
-    }
-    out.image = codec_.encode_at_quality(*image, level.jpeg_quality);
-    out.width = static_cast<std::uint32_t>(image->cols);
-    out.height = static_cast<std::uint32_t>(image->rows);
+    EncodedFrame encoded =
+        encode_at_level(frame, regions, level, config_.text_aware, config_.text_margin_px, codec_);
+    out.image = std::move(encoded.image);
+    out.width = encoded.width;
+    out.height = encoded.height;
+    out.text_regions = std::move(encoded.text_regions);
     out.reduced = true;
-    controller_.on_cost(index, out.image.size() + kSampleOverhead);
   }
+  if (config_.enabled) controller_.on_cost(index, out.image.size() + kSampleOverhead);
   out.held = !controller_.send_now();
   if (out.reduced) ++reduced_;
   if (out.held) ++thinned_;

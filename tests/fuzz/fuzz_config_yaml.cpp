@@ -7,10 +7,11 @@
 #include <cstdlib>
 #include <string>
 
-#include "keyfleet/common/config.hpp"
+#include "keyfleet/agent/agent_config_yaml.hpp"
 #include "keyfleet/common/config_error.hpp"
 #include "keyfleet/common/config_yaml.hpp"
 #include "keyfleet/mission/mission_config.hpp"
+#include "keyfleet/station/station_config_yaml.hpp"
 
 namespace {
 

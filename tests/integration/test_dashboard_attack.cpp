@@ -17,8 +17,9 @@
 #include <sstream>
 #include <thread>
 
-#include "keyfleet/common/config.hpp"
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/mission/child_process.hpp"
+#include "keyfleet/station/station_config.hpp"
 #include "support/fleet_fixture.hpp"
 
 namespace keyfleet::testing {

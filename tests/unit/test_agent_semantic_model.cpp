@@ -14,10 +14,10 @@
 #include <string>
 
 #include "generated_views.hpp"
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/eval/segmenter_eval.hpp"
 #include "keyfleet/vision/model_files.hpp"
+#include "keyfleet/vision/semantic_config.hpp"
 #include "keyfleet/vision/text_segmenter.hpp"
 #include "test_support.hpp"
 

@@ -5,12 +5,13 @@
 #include <string>
 #include <utility>
 
-#include "keyfleet/common/config.hpp"
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/common/config_error.hpp"
 #include "keyfleet/eval/eval_config.hpp"
 #include "keyfleet/mission/experiment_config.hpp"
 #include "keyfleet/mission/mission_config.hpp"
 #include "keyfleet/scenario/scenario_config.hpp"
+#include "keyfleet/station/station_config.hpp"
 
 namespace keyfleet {
 namespace {
@@ -523,7 +524,7 @@ TEST(ShippedConfigs, EveryScenarioAndMissionFileInConfigsLoads) {
   EXPECT_GT(scenarios, 0);
   EXPECT_GT(missions, 0);
   EXPECT_EQ(evaluations, 2);  // eval.yaml (the demo's street), eval_side.yaml
-  EXPECT_EQ(experiments, 2);  // experiment_bandwidth.yaml, experiment_bandwidth_radio.yaml
+  EXPECT_EQ(experiments, 3);  // experiment_bandwidth{,_radio,_adaptation}.yaml
 }
 
 }  // namespace

@@ -7,7 +7,7 @@
 #include <sstream>
 #include <string>
 
-#include "keyfleet/common/config_yaml.hpp"
+#include "keyfleet/mission/config_reference.hpp"
 
 namespace {
 

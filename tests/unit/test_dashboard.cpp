@@ -9,12 +9,12 @@
 #include <sstream>
 #include <thread>
 
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/config_error.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/station/analysis_store.hpp"
 #include "keyfleet/station/keyframe_store.hpp"
+#include "keyfleet/station/station_config.hpp"
 #include "keyfleet/station/web/dashboard_server.hpp"
 #include "keyfleet/station/web/event_hub.hpp"
 #include "keyfleet/station/web/html_report.hpp"

@@ -14,9 +14,9 @@
 #include <thread>
 #include <vector>
 
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/station/analysis_store.hpp"
+#include "keyfleet/station/dashboard_config.hpp"
 #include "keyfleet/station/keyframe_store.hpp"
 #include "keyfleet/station/web/dashboard_server.hpp"
 #include "test_support.hpp"

@@ -7,7 +7,6 @@
 #include <filesystem>
 #include <fstream>
 
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/config_error.hpp"
 #include "keyfleet/eval/eval_config.hpp"
 #include "keyfleet/eval/eval_runner.hpp"

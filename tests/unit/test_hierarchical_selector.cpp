@@ -16,9 +16,9 @@
 #include <utility>
 #include <vector>
 
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/agent/keyframe_selector.hpp"
 #include "keyfleet/agent/keyframe_trigger.hpp"
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/vision/text_segmenter.hpp"
 #include "test_support.hpp"
 

@@ -13,8 +13,8 @@
 #include <utility>
 #include <vector>
 
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/agent/image_quality.hpp"
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/scenario_truth.hpp"
 #include "keyfleet/eval/image_quality_reference.hpp"
 #include "keyfleet/scenario/camera_effects.hpp"

@@ -14,11 +14,11 @@
 #include <vector>
 
 #include "fake_links.hpp"
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/agent/keyframe_agent.hpp"
 #include "keyfleet/agent/keyframe_selector.hpp"
 #include "keyfleet/agent/outbox.hpp"
 #include "keyfleet/agent/stage_clock.hpp"
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/image_codec.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "test_support.hpp"

@@ -18,12 +18,12 @@
 #include <string>
 #include <vector>
 
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/agent/frame_source.hpp"
 #include "keyfleet/agent/grid_orb_extractor.hpp"
 #include "keyfleet/agent/keyframe_trigger.hpp"
 #include "keyfleet/agent/klt_trigger.hpp"
 #include "keyfleet/agent/need_new_keyframe.hpp"
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/scenario_truth.hpp"
 #include "keyfleet/scenario/scenario_config.hpp"

@@ -9,7 +9,9 @@
 #include <vector>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
+#include "keyfleet/agent/level_encoding.hpp"
 #include "keyfleet/agent/link_aware_sender.hpp"
 #include "keyfleet/agent/link_estimator.hpp"
 #include "keyfleet/agent/send_controller.hpp"
@@ -272,6 +274,7 @@ TEST(LinkAwareSender, ASlowLinkScalesTheFrameAndItsTextRegions) {
   config.jpeg_qualities = {};
   config.scales = {0.5};
   config.max_density = 1;
+  config.text_aware = false;
   JpegCodec codec(85);
   LinkAwareSender sender(config, codec, 85, keyfleet::null_logger());
   cv::Mat frame(480, 640, CV_8UC3);
@@ -306,6 +309,42 @@ TEST(LinkAwareSender, ASlowLinkScalesTheFrameAndItsTextRegions) {
   EXPECT_GE(stats.level_changes, 1u);
   EXPECT_GE(stats.keyframes_reduced, 1u);
   EXPECT_NEAR(stats.link_bytes_per_s, 10'000, 500);
+}
+
+// Text-aware: the scaled rung keeps the frame's size and its text pixels, coarsens the rest.
+TEST(LevelEncoding, TextAwareKeepsTheTextSharpAndTheBackgroundCoarse) {
+  JpegCodec codec(85);
+  cv::Mat frame(480, 640, CV_8UC3);
+  cv::randu(frame, 0, 255);  // detail everywhere: the worst case for JPEG
+  const std::vector<TextRegion> regions = {{100, 50, 200, 40}};
+  const SendLevel level{85, 0.25, 1};
+  const auto aware = encode_at_level(frame, regions, level, true, 4, codec);
+  const auto scaled = encode_at_level(frame, regions, level, false, 4, codec);
+  const auto full = codec.encode(frame);
+  EXPECT_EQ(aware.width, 640u);
+  EXPECT_EQ(aware.height, 480u);
+  EXPECT_EQ(aware.text_regions, regions);
+  EXPECT_EQ(scaled.width, 160u);
+  EXPECT_EQ(scaled.text_regions[0], (TextRegion{25, 12, 50, 11}));
+  // The text region and its margin carry the frame's detail; the background does not.
+  const DecodeResult decoded = codec.decode(aware.image);
+  ASSERT_TRUE(decoded.ok());
+  const auto detail = [](const cv::Mat& image) {
+    cv::Mat gray, laplacian;
+    cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+    cv::Laplacian(gray, laplacian, CV_32F);
+    cv::Scalar mean, stddev;
+    cv::meanStdDev(laplacian, mean, stddev);
+    return stddev[0];
+  };
+  const cv::Rect text(100, 50, 200, 40), background(300, 300, 200, 100);
+  EXPECT_GT(detail(decoded.image(text)), 0.8 * detail(frame(text)));
+  EXPECT_LT(detail(decoded.image(background)), 0.3 * detail(frame(background)));
+  // Fewer bytes than the full frame, more than the scaled one (the text is all there).
+  EXPECT_LT(aware.image.size(), full.size() / 3);
+  EXPECT_GT(aware.image.size(), scaled.image.size());
+  // Without text regions a text-aware rung sends the scaled frame.
+  EXPECT_EQ(encode_at_level(frame, {}, level, true, 4, codec).width, 160u);
 }
 
 }  // namespace

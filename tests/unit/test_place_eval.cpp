@@ -9,7 +9,6 @@
 #include <filesystem>
 #include <set>
 
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/eval/eval_config.hpp"
 #include "keyfleet/eval/eval_runner.hpp"

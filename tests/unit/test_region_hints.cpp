@@ -13,9 +13,9 @@
 #include "dds_wire_conversion.hpp"
 #include "fake_links.hpp"
 #include "keyfleet.h"
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/agent/outbox.hpp"
 #include "keyfleet/agent/text_regions.hpp"
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/config_error.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/sqlite.hpp"
@@ -25,6 +25,7 @@
 #include "keyfleet/station/keyframe_store.hpp"
 #include "keyfleet/station/keyframe_validator.hpp"
 #include "keyfleet/station/mission_log.hpp"
+#include "keyfleet/station/station_config.hpp"
 #include "keyfleetPubSubTypes.h"
 #include "test_support.hpp"
 

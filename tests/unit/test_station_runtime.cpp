@@ -8,8 +8,8 @@
 #include <fstream>
 
 #include "fake_links.hpp"
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/station/station_config.hpp"
 #include "keyfleet/station/station_runtime.hpp"
 #include "test_support.hpp"
 

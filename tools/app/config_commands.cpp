@@ -4,7 +4,7 @@
 #include <iostream>
 
 #include "commands.hpp"
-#include "keyfleet/common/config_yaml.hpp"
+#include "keyfleet/mission/config_reference.hpp"
 
 namespace keyfleet::commands {
 

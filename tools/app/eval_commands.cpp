@@ -10,7 +10,6 @@
 #include <vector>
 
 #include "commands.hpp"
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/eval/eval_config.hpp"

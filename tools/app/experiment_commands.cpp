@@ -4,7 +4,6 @@
 #include <string>
 
 #include "commands.hpp"
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/shutdown_signal.hpp"
 #include "keyfleet/mission/bandwidth_experiment.hpp"

@@ -9,7 +9,7 @@
 
 #include "commands.hpp"
 
-#include "keyfleet/common/config.hpp"
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/common/process_tuning.hpp"
 #include "keyfleet/eval/selection_eval.hpp"
 #include "keyfleet/mission/mission_config.hpp"

@@ -16,12 +16,12 @@
 #include <vector>
 
 #include "commands.hpp"
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/file_output.hpp"
 #include "keyfleet/eval/eval_runner.hpp"
 #include "keyfleet/eval/run_text_score.hpp"
 #include "keyfleet/eval/text_dataset_eval.hpp"
+#include "keyfleet/station/station_config.hpp"
 #include "keyfleet/station/text/text_reader.hpp"
 
 namespace keyfleet::commands {

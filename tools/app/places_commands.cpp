@@ -14,7 +14,6 @@
 #include <vector>
 
 #include "commands.hpp"
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/file_output.hpp"
 #include "keyfleet/common/logging.hpp"
@@ -22,6 +21,7 @@
 #include "keyfleet/eval/eval_runner.hpp"
 #include "keyfleet/eval/place_eval.hpp"
 #include "keyfleet/eval/seed_aggregate.hpp"
+#include "keyfleet/station/places/place_recognition_config.hpp"
 #include "keyfleet/vision/model_files.hpp"
 #include "keyfleet/vision/place_describer.hpp"
 

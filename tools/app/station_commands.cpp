@@ -9,13 +9,13 @@
 #include <memory>
 
 #include "commands.hpp"
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/station/analysis_setup.hpp"
 #include "keyfleet/station/analysis_store.hpp"
 #include "keyfleet/station/keyframe_store.hpp"
 #include "keyfleet/station/map/topo_map.hpp"
 #include "keyfleet/station/station_analysis.hpp"
+#include "keyfleet/station/station_config.hpp"
 
 namespace keyfleet::commands {
 namespace {

@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/agent/frame_source.hpp"
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/eval/selection_eval.hpp"

@@ -60,7 +60,7 @@ class PpocrReader final : public TextReader {
   explicit PpocrReader(const TextReadingConfig& params);
   std::vector<ReadWord> read(const cv::Mat& bgr) override;
   std::string name() const override { return "ppocr"; }
-  // As `region_hints` says (config.hpp; ppocr_region_hints.cpp).
+  // As `region_hints` says (text_reading_config.hpp; ppocr_region_hints.cpp).
   std::vector<ReadWord> read_with_hints(const cv::Mat& bgr,
                                         const std::vector<cv::Rect>& hints) override;
 

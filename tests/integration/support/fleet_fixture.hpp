@@ -13,8 +13,9 @@
 #include <string>
 #include <vector>
 
-#include "keyfleet/common/config.hpp"
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/mission/child_process.hpp"
+#include "keyfleet/station/station_config.hpp"
 
 namespace keyfleet::testing {
 

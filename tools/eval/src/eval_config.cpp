@@ -1,6 +1,9 @@
 #include "keyfleet/eval/eval_config.hpp"
 
+#include "keyfleet/agent/agent_config_yaml.hpp"
 #include "keyfleet/common/config_yaml.hpp"
+#include "keyfleet/station/places/place_recognition_config.hpp"
+#include "keyfleet/station/text/text_reading_config_yaml.hpp"
 
 namespace keyfleet {
 

@@ -129,17 +129,21 @@ ExperimentResult BandwidthExperiment::run(const StopToken& stop) {
   }
   std::vector<std::string> security_modes = config_.security;
   if (security_modes.empty()) security_modes = {config_.mission.security ? "on" : "off"};
+  std::vector<std::string> adaptation_modes = config_.link_adaptation;
+  if (adaptation_modes.empty())
+    adaptation_modes = {config_.mission.agent.link_adaptation.enabled ? "on" : "off"};
   for (const auto& link : links)
     for (const auto& security : security_modes)
       for (int drones : config_.drones)
-        for (const auto& profile : config_.profiles) {
-          if (stop.requested()) {
-            result.interrupted = true;
-            break;
+        for (const auto& profile : config_.profiles)
+          for (const auto& adaptation : adaptation_modes) {
+            if (stop.requested()) {
+              result.interrupted = true;
+              break;
+            }
+            result.missions.push_back(run_mission(dir.string(), link, security == "on",
+                                                  adaptation == "on", drones, profile, stop));
           }
-          result.missions.push_back(
-              run_mission(dir.string(), link, security == "on", drones, profile, stop));
-        }
   if (stop.requested()) result.interrupted = true;
 
   write_experiment_json(result, config_, (dir / "results.json").string());
@@ -157,22 +161,24 @@ ExperimentResult BandwidthExperiment::run(const StopToken& stop) {
 }
 
 ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const std::string& link,
-                                                   bool security, int drones,
+                                                   bool security, bool adaptation, int drones,
                                                    const LinkProfileConfig& profile,
                                                    const StopToken& stop) {
   ExperimentMission out;
   out.link = link;
   out.security = security;
+  out.link_adaptation = adaptation;
   out.profile = profile;
   out.drones = drones;
   out.name = "d" + std::to_string(drones) + "-" + link + "-" + profile.name +
-             (security ? "-sec" : "-plain");
+             (security ? "-sec" : "-plain") + (adaptation ? "-adapt" : "");
   progress_ << "\n=== " << out.name << " ===\n" << std::flush;
 
   MissionConfig mission = config_.mission;
   mission.name = out.name;
   mission.drones = drones;
   mission.security = security;
+  mission.agent.link_adaptation.enabled = adaptation;
   size_drain(mission, profile, config_);
   mission.run_root = (fs::path(dir) / "missions").string();
   std::vector<std::string> robot_ids;

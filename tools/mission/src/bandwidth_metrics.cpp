@@ -80,6 +80,9 @@ RobotMetrics robot_metrics(const std::string& robot_id,
   if (totals) {
     m.agent_stats_seen = true;
     m.dropped = totals->keyframes_dropped;
+    m.reduced = totals->keyframes_reduced;
+    m.thinned = totals->keyframes_thinned;
+    m.level_changes = totals->level_changes;
     m.resent = totals->keyframes_resent;
     m.sent_bytes = totals->bytes_sent + totals->bytes_resent;
     m.stream_all_bytes = totals->stream_all_bytes;

@@ -36,6 +36,12 @@ void visit(V& v, BandwidthExperimentConfig& c) {
               if (m != "on" && m != "off") return std::string("each must be on or off");
             return std::string();
           }));
+  v.field("link_adaptation", c.link_adaptation,
+          Check<std::vector<std::string>>([](const std::vector<std::string>& modes) {
+            for (const auto& m : modes)
+              if (m != "on" && m != "off") return std::string("each must be on or off");
+            return std::string();
+          }));
   v.field("offered_bytes_per_s", c.offered_bytes_per_s, between(0.0, 1e9));
   v.field("drain_margin_s", c.drain_margin_s, between(0.0, 3600.0));
   v.field("idle_window_s", c.idle_window_s, between(0.0, 600.0));

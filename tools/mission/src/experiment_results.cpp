@@ -43,6 +43,9 @@ json robot_json(const RobotOutcome& r) {
   j["latency_median_ms"] = r.latency_measured ? json(m.latency_median_ms) : json(nullptr);
   j["latency_p95_ms"] = r.latency_measured ? json(m.latency_p95_ms) : json(nullptr);
   j["dropped"] = m.dropped;
+  j["keyframes_reduced"] = m.reduced;
+  j["keyframes_thinned"] = m.thinned;
+  j["level_changes"] = m.level_changes;
   j["resent"] = m.resent;
   j["refused_writes"] = m.refused_writes;
   j["payload_bytes"] = m.payload_bytes;
@@ -89,6 +92,7 @@ void write_experiment_json(const ExperimentResult& result, const BandwidthExperi
     j["name"] = m.name;
     j["link"] = m.link;
     j["security"] = m.security;
+    j["link_adaptation"] = m.link_adaptation;
     j["dds_link"] = m.dds_link;
     j["profile"] = {{"name", m.profile.name},
                     {"rate_kbit_s", m.profile.rate_kbit_s},
@@ -136,14 +140,15 @@ std::string experiment_table(const ExperimentResult& result) {
   std::string table;
   char line[512];
   std::snprintf(line, sizeof line,
-                "%-28s %4s %9s %7s %9s %8s %7s %7s %9s %10s %10s %8s %8s %8s %7s %7s %9s\n",
+                "%-32s %4s %9s %7s %9s %8s %7s %7s %9s %10s %10s %8s %8s %8s %7s %7s %9s %6s "
+                "%8s\n",
                 "mission", "ok", "delivered", "undeliv", "lat.med", "lat.p95", "dropped", "resent",
                 "payload", "wire", "kB/s/robot", "x stream", "x vslam", "goodput", "wire/pl",
-                "1st kf", "idle B/s");
+                "1st kf", "idle B/s", "kB/kf", "reduced");
   table += line;
   for (const auto& m : result.missions) {
     std::uint64_t delivered = 0, dropped = 0, resent = 0, payload = 0, wire = 0, stream = 0,
-                  vslam = 0;
+                  vslam = 0, reduced = 0;
     bool wire_measured = !m.robots.empty();
     std::vector<double> medians, p95s, rates, goodputs, ratios, firsts, idles;
     std::uint64_t undelivered = 0;
@@ -151,6 +156,7 @@ std::string experiment_table(const ExperimentResult& result) {
       const RobotMetrics& x = r.metrics;
       delivered += x.delivered;
       dropped += x.dropped;
+      reduced += x.reduced;
       resent += x.resent;
       payload += x.payload_bytes;
       stream += x.stream_all_bytes;
@@ -184,15 +190,17 @@ std::string experiment_table(const ExperimentResult& result) {
     const double p95 = p95s.empty() ? 0 : *std::max_element(p95s.begin(), p95s.end());
     std::snprintf(
         line, sizeof line,
-        "%-28s %4s %9llu %7llu %7.0fms %6.0fms %7llu %7llu %7sMB %8s%s %10.1f %7.1fx %7.1fx %8s "
-        "%7s %7s %9s\n",
+        "%-32s %4s %9llu %7llu %7.0fms %6.0fms %7llu %7llu %7sMB %8s%s %10.1f %7.1fx %7.1fx %8s "
+        "%7s %7s %9s %6.1f %8llu\n",
         m.name.c_str(), m.ok ? "yes" : "NO", static_cast<unsigned long long>(delivered),
         static_cast<unsigned long long>(undelivered), median(medians), p95,
         static_cast<unsigned long long>(dropped), static_cast<unsigned long long>(resent),
         megabytes(payload).c_str(), wire_measured ? megabytes(wire).c_str() : "not meas.",
         wire_measured ? "MB" : "", median(rates), saving_ratio(stream, payload),
         saving_ratio(vslam, payload), cell(goodputs, "%.2f").c_str(), cell(ratios, "%.2f").c_str(),
-        cell(firsts, "%.1fs").c_str(), cell(idles, "%.0f").c_str());
+        cell(firsts, "%.1fs").c_str(), cell(idles, "%.0f").c_str(),
+        delivered > 0 ? static_cast<double>(payload) / static_cast<double>(delivered) / 1e3 : 0.0,
+        static_cast<unsigned long long>(reduced));
     table += line;
   }
   return table;

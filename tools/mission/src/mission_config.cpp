@@ -2,7 +2,8 @@
 
 #include <filesystem>
 
-#include "keyfleet/common/config_yaml.hpp"
+#include "keyfleet/agent/agent_config_yaml.hpp"
+#include "keyfleet/station/station_config_yaml.hpp"
 
 namespace keyfleet {
 

@@ -1,9 +1,11 @@
 #pragma once
 // How configuration structs meet YAML. Each struct is described once by a visit() function in
 // the library that owns the struct; a ConfigReader visitor loads and validates it, a
-// ConfigWriter visitor prints it. The libraries of the tools (scenario, mission, eval) describe
-// their own structs with these visitors and reuse the descriptions of the agent's and the
-// station's structs declared below.
+// ConfigWriter visitor prints it, a ConfigReference lists its keys. The descriptions live with
+// their structs: the settings both sides read in shared_config_yaml.hpp, the agent's in
+// agent/agent_config_yaml.hpp, the station's in station/station_config_yaml.hpp, the text
+// reader's, place recognition's and the segmenter's in their libraries; the tools' libraries
+// (scenario, mission, eval) describe their own structs and reuse those.
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
@@ -16,7 +18,6 @@
 #include <utility>
 #include <vector>
 
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/config_error.hpp"
 
 namespace keyfleet {
@@ -345,26 +346,21 @@ class ConfigReference {
   std::string path_;
 };
 
-// Every key of the agent's and the station's config files as Markdown tables (key, type,
-// default, allowed): the generated part of docs/configuration.md.
-std::string config_reference_markdown();
+// Every key of `Config` (default-constructed) with its type, default and check, in the order of
+// its description; visit(ConfigReference&, Config&) must be defined or instantiated.
+template <class Config>
+std::vector<ConfigKey> config_keys() {
+  std::vector<ConfigKey> keys;
+  Config defaults;
+  ConfigReference reference(keys, "");
+  visit(reference, defaults);
+  return keys;
+}
 
-// The descriptions of the structs that the tools' configs embed (defined and instantiated for
-// both visitors in config_yaml.cpp).
-template <class V>
-void visit(V& v, AgentConfig& c);
-template <class V>
-void visit(V& v, StationConfig& c);
-template <class V>
-void visit(V& v, SelectorConfig& c);
-template <class V>
-void visit(V& v, CodecConfig& c);
-template <class V>
-void visit(V& v, TextReadingConfig& c);
-
-// Cross-field rules that a single key cannot express; throw ConfigError naming `origin`.
-void validate(const AgentConfig& config, const std::string& origin);
-void validate(const StationConfig& config, const std::string& origin);
+// `keys` as a Markdown table (key, type, default, allowed) under a "### title" and an intro:
+// one part of docs/configuration.md (`keyfleet config reference` puts them together).
+std::string config_reference_table(const std::string& title, const std::string& intro,
+                                   const std::vector<ConfigKey>& keys);
 
 // The text of a config file; ConfigError when it cannot be read.
 std::string read_config_file(const std::string& path);

@@ -1,9 +1,10 @@
 #pragma once
 #include <memory>
 
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/station/place_recognizer.hpp"
+#include "keyfleet/station/places/place_recognition_config.hpp"
 #include "keyfleet/station/text/text_reader.hpp"
+#include "keyfleet/station/text/text_reading_config.hpp"
 #include "keyfleet/vision/place_describer.hpp"
 
 namespace keyfleet::station {

@@ -1,9 +1,9 @@
 #pragma once
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/image_codec.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/station/analysis_types.hpp"
 #include "keyfleet/station/place_recognizer.hpp"
+#include "keyfleet/station/station_config.hpp"
 #include "keyfleet/vision/place_describer.hpp"
 
 namespace keyfleet::station {

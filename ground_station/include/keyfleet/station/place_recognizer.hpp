@@ -6,12 +6,12 @@
 #include <shared_mutex>
 #include <vector>
 
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/station/analysis_types.hpp"
 #include "keyfleet/station/geometry/match_verifier.hpp"
 #include "keyfleet/station/places/bow_database.hpp"
 #include "keyfleet/station/places/descriptor_index.hpp"
 #include "keyfleet/station/places/orb_vocabulary.hpp"
+#include "keyfleet/station/places/place_recognition_config.hpp"
 #include "keyfleet/station/places/retrieval_modes.hpp"
 
 namespace keyfleet::station {

@@ -6,7 +6,7 @@
 #include <optional>
 #include <string>
 
-#include "keyfleet/common/config.hpp"
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/types.hpp"
 

@@ -5,11 +5,11 @@
 #include <optional>
 #include <vector>
 
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/agent/frame_source.hpp"
 #include "keyfleet/agent/image_quality.hpp"
 #include "keyfleet/agent/keyframe_trigger.hpp"
 #include "keyfleet/agent/stage_clock.hpp"
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/vision/text_segmenter.hpp"
 
 namespace keyfleet::agent {

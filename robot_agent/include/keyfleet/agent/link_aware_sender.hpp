@@ -15,7 +15,8 @@ namespace keyfleet::agent {
 
 // The agent's link-aware sending: the estimator fed with what the agent hands over and what the
 // station acknowledges, the controller's level, and the frame encoded at that level (JPEG
-// quality, then the frame scaled down with the text regions scaled with it). With adaptation
+// quality, then the frame scaled down, or with text_aware only its background: level_encoding.hpp).
+// With adaptation
 // off it only estimates the link, and every keyframe goes at the richest level.
 class LinkAwareSender {
  public:
@@ -54,7 +55,7 @@ class LinkAwareSender {
  private:
   void apply(std::int64_t now_ns, std::uint64_t backlog_bytes);
   // Every distinct encoding of the ladder, measured on this frame, teaches the controller.
-  void calibrate(const cv::Mat& frame);
+  void calibrate(const cv::Mat& frame, const std::vector<TextRegion>& regions);
 
   LinkAdaptationConfig config_;
   const ImageCodec& codec_;
@@ -66,7 +67,6 @@ class LinkAwareSender {
   std::uint64_t reduced_ = 0;
   std::uint64_t thinned_ = 0;
   std::uint64_t level_changes_ = 0;
-  cv::Mat scaled_;  // reused for the scaled frame
 };
 
 }  // namespace keyfleet::agent

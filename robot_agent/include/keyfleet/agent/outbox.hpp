@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "keyfleet/common/config.hpp"
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/common/sqlite.hpp"
 #include "keyfleet/common/types.hpp"
 

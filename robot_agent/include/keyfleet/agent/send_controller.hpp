@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/agent/link_estimator.hpp"
-#include "keyfleet/common/config.hpp"
 
 namespace keyfleet::agent {
 

@@ -3,7 +3,7 @@
 
 #include <vector>
 
-#include "keyfleet/common/config.hpp"
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/common/types.hpp"
 
 namespace keyfleet::agent {

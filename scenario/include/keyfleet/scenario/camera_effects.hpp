@@ -4,7 +4,6 @@
 #include <random>
 #include <string>
 
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/scenario/scenario_config.hpp"
 
 namespace keyfleet::scenario {

@@ -2,7 +2,6 @@
 #include <random>
 #include <vector>
 
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/scenario/plane_renderer.hpp"
 #include "keyfleet/scenario/scenario_config.hpp"
 

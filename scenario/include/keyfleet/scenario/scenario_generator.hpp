@@ -1,7 +1,6 @@
 #pragma once
 #include <string>
 
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/scenario_truth.hpp"
 #include "keyfleet/scenario/plane_renderer.hpp"

@@ -7,7 +7,6 @@
 #include <string>
 #include <vector>
 
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/scenario_truth.hpp"
 #include "keyfleet/scenario/scenario_config.hpp"
 

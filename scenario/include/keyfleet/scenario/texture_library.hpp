@@ -6,7 +6,6 @@
 #include <string>
 #include <vector>
 
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/scenario/scenario_config.hpp"
 
 namespace keyfleet::scenario {

@@ -7,9 +7,9 @@
 #include <opencv2/core.hpp>
 #include <opencv2/dnn.hpp>
 
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/vision/db_boxes.hpp"
 #include "keyfleet/vision/dnn_layers.hpp"
+#include "keyfleet/vision/semantic_config.hpp"
 
 #include <map>
 #include <memory>

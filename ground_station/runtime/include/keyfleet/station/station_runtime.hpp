@@ -9,11 +9,11 @@
 #include <memory>
 #include <string>
 
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/robot_admission.hpp"
 #include "keyfleet/common/shutdown_signal.hpp"
 #include "keyfleet/common/transport.hpp"
+#include "keyfleet/station/station_config.hpp"
 
 namespace keyfleet::station {
 

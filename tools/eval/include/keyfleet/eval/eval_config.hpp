@@ -3,8 +3,9 @@
 #include <string>
 #include <vector>
 
-#include "keyfleet/common/config.hpp"
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/scenario/scenario_config.hpp"
+#include "keyfleet/station/text/text_reading_config.hpp"
 
 namespace keyfleet {
 

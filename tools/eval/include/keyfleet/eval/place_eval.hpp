@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
+#include "keyfleet/station/places/place_recognition_config.hpp"
 
 namespace keyfleet::eval {
 

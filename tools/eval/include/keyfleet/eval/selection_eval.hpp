@@ -6,10 +6,10 @@
 #include <string>
 #include <vector>
 
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/agent/frame_source.hpp"
 #include "keyfleet/agent/keyframe_selector.hpp"
 #include "keyfleet/agent/stage_clock.hpp"
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/scenario_truth.hpp"
 #include "keyfleet/vision/text_segmenter.hpp"
 
@@ -42,7 +42,7 @@ SelectionEvaluation evaluate_selection(const std::string& scenario_dir, const st
                                        const SelectorConfig& base,
                                        const std::vector<SelectorConfig::Strategy>& strategies);
 
-// Throws StartupError for a name that is not one of the strategies config.hpp names.
+// Throws StartupError for a name that is not one of the strategies agent_config.hpp names.
 SelectorConfig::Strategy strategy_from_string(const std::string& name);
 
 // One drone of a scenario, decoded into memory (640x480: about 0.9 MB a frame).

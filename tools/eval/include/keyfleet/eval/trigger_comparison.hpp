@@ -4,8 +4,8 @@
 #include <string>
 #include <vector>
 
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/agent/frame_source.hpp"
-#include "keyfleet/common/config.hpp"
 
 namespace keyfleet::eval {
 

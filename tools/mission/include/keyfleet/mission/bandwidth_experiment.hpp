@@ -7,7 +7,6 @@
 #include <string>
 #include <vector>
 
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/shutdown_signal.hpp"
 #include "keyfleet/mission/bandwidth_metrics.hpp"
@@ -37,9 +36,10 @@ struct RobotOutcome {
 
 struct ExperimentMission {
   std::string name;
-  std::string link;       // flow_control | netns
-  bool security = true;   // DDS-Security on
-  bool dds_link = false;  // DDS tuned for the link (dds.link from the profile)
+  std::string link;              // flow_control | netns
+  bool security = true;          // DDS-Security on
+  bool link_adaptation = false;  // the agents fit what they send to their link
+  bool dds_link = false;         // DDS tuned for the link (dds.link from the profile)
   LinkProfileConfig profile;
   int drones = 0;
   std::uint64_t dds_cap_bytes_per_s = 0;  // per agent; 0 = none
@@ -68,7 +68,7 @@ class BandwidthExperiment {
 
  private:
   ExperimentMission run_mission(const std::string& dir, const std::string& link, bool security,
-                                int drones, const LinkProfileConfig& profile,
+                                bool adaptation, int drones, const LinkProfileConfig& profile,
                                 const StopToken& stop);
 
   BandwidthExperimentConfig config_;

@@ -40,6 +40,11 @@ struct RobotMetrics {
   double latency_median_ms = 0;  // received_ns - capture_time_ns
   double latency_p95_ms = 0;
   std::uint64_t dropped = 0;  // outbox evictions
+  // Link adaptation (agent stats): keyframes sent below the richest level, selections held back
+  // by density, level changes.
+  std::uint64_t reduced = 0;
+  std::uint64_t thinned = 0;
+  std::uint64_t level_changes = 0;
   std::uint64_t resent = 0;
   std::uint64_t refused_writes = 0;  // writes the capped writer refused (from the agent log)
   std::uint64_t payload_bytes = 0;   // serialized samples stored (first copies)

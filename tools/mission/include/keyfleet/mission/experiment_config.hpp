@@ -36,6 +36,9 @@ struct BandwidthExperimentConfig {
   // Each mission with DDS-Security ("on"), without ("off"), or both, in this order; empty: as
   // mission.security says.
   std::vector<std::string> security;
+  // Each mission with the agents' link adaptation off, on, or both, in this order; empty: as
+  // mission.agent.link_adaptation.enabled says.
+  std::vector<std::string> link_adaptation;
   // Sizing each mission's drain to its link: the keyframe bytes a drone is expected to offer per
   // second of flight. The agents' drain_timeout_s becomes at least the flight's offered bytes
   // over the link's rate plus drain_margin_s, so "delivered" measures the transport.

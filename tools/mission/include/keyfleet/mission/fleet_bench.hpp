@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "keyfleet/common/config.hpp"
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/shutdown_signal.hpp"
 #include "keyfleet/common/types.hpp"

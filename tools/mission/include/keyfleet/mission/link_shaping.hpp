@@ -7,7 +7,6 @@
 #include <string>
 #include <vector>
 
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/mission/bandwidth_metrics.hpp"
 #include "keyfleet/mission/experiment_config.hpp"

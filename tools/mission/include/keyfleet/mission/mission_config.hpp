@@ -3,7 +3,8 @@
 #include <optional>
 #include <string>
 
-#include "keyfleet/common/config.hpp"
+#include "keyfleet/agent/agent_config.hpp"
+#include "keyfleet/station/station_config.hpp"
 
 namespace keyfleet {
 

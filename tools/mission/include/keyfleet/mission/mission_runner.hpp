@@ -6,11 +6,12 @@
 #include <string>
 #include <vector>
 
-#include "keyfleet/common/config.hpp"
+#include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/shutdown_signal.hpp"
 #include "keyfleet/mission/child_process.hpp"
 #include "keyfleet/mission/mission_config.hpp"
+#include "keyfleet/station/station_config.hpp"
 
 namespace keyfleet::mission {
 

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "keyfleet/common/config.hpp"
+#include "keyfleet/station/geometry/verifier_kind.hpp"
 #include "keyfleet/station/geometry/vfc.hpp"
 
 namespace keyfleet::station {
@@ -27,7 +27,8 @@ class MatchVerifier {
   virtual std::string name() const = 0;
 };
 
-// The kinds are configuration values (config.hpp), named there once for YAML and here alike.
+// The kinds are configuration values (verifier_kind.hpp), named there once for YAML and here
+// alike.
 using ::keyfleet::VerifierKind;
 
 // OpenCV's robust estimators: usac = true picks cv::USAC_DEFAULT (OpenCV's USAC framework

@@ -9,7 +9,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "keyfleet/common/config.hpp"
+#include "keyfleet/station/places/place_recognition_config.hpp"
 
 namespace keyfleet::station {
 

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "keyfleet/common/config.hpp"
+#include "keyfleet/station/text/text_reading_config.hpp"
 
 namespace keyfleet::station {
 

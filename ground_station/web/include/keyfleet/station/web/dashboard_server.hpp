@@ -8,9 +8,9 @@
 #include <string>
 #include <thread>
 
-#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/station/analysis_pool.hpp"
+#include "keyfleet/station/dashboard_config.hpp"
 #include "keyfleet/station/web/event_hub.hpp"
 
 namespace keyfleet::station::web {

