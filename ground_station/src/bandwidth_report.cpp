@@ -48,6 +48,10 @@ void accumulate(BandwidthRow& sum, const BandwidthRow& r) {
   sum.keyframes_resent += r.keyframes_resent;
   sum.keyframes_dropped += r.keyframes_dropped;
   sum.keyframes_pending += r.keyframes_pending;
+  sum.keyframes_reduced += r.keyframes_reduced;
+  sum.keyframes_thinned += r.keyframes_thinned;
+  sum.level_changes += r.level_changes;
+  sum.link_bytes_per_s += r.link_bytes_per_s;
   sum.bytes_sent_total += r.bytes_sent_total;
   sum.stream_all_bytes += r.stream_all_bytes;
   sum.stream_all_estimated = sum.stream_all_estimated || r.stream_all_estimated;
@@ -95,6 +99,15 @@ BandwidthReport build_bandwidth_report(const std::vector<RobotTotals>& totals) {
       row.stream_all_estimated = s.stream_all_estimated;
       row.vslam_keyframe_bytes = s.vslam_keyframe_bytes;
       row.vslam_keyframe_estimated = s.vslam_keyframe_estimated;
+      row.keyframes_reduced = s.keyframes_reduced;
+      row.keyframes_thinned = s.keyframes_thinned;
+      row.level_changes = s.level_changes;
+      row.send_quality = s.send_quality;
+      row.send_scale = s.send_scale;
+      row.send_density = s.send_density;
+      row.link_bytes_per_s = s.link_bytes_per_s;
+      row.link_rtt_ms = s.link_rtt_ms;
+      row.backlog_s = s.backlog_s;
     }
     report.fleet.agent_finished = report.fleet.agent_finished && row.agent_finished;
     accumulate(report.fleet, row);
@@ -131,6 +144,21 @@ std::string format_table(const BandwidthReport& report) {
   };
   for (const auto& r : report.robots) print(r);
   print(report.fleet);
+  // Link adaptation, for the robots that adapted: what they gave up to keep their latency.
+  for (const auto& r : report.robots) {
+    if (r.level_changes == 0 && r.keyframes_reduced == 0 && r.keyframes_thinned == 0) continue;
+    std::snprintf(line, sizeof line,
+                  "link adaptation %s: %llu of %llu keyframes sent reduced, %llu held back, %llu "
+                  "level changes; now JPEG q%u at %.2g of the frame%s; link %.1f kB/s, round "
+                  "trip %.0f ms\n",
+                  r.robot_id.c_str(), static_cast<unsigned long long>(r.keyframes_reduced),
+                  static_cast<unsigned long long>(r.keyframes_sent),
+                  static_cast<unsigned long long>(r.keyframes_thinned),
+                  static_cast<unsigned long long>(r.level_changes), r.send_quality, r.send_scale,
+                  r.send_density > 1 ? (", one in " + std::to_string(r.send_density)).c_str() : "",
+                  r.link_bytes_per_s / 1e3, r.link_rtt_ms);
+    out << line;
+  }
   const RobotRefusals& refused = report.refused;
   if (refused.any()) {
     std::string ids;
@@ -178,7 +206,16 @@ std::string to_json(const BandwidthReport& report) {
                           {"vslam_keyframe_estimated", r.vslam_keyframe_estimated},
                           {"saving_vs_stream_all", r.saving_vs_stream_all()},
                           {"saving_vs_vslam", r.saving_vs_vslam()},
-                          {"keyframes_per_minute", r.keyframes_per_minute}};
+                          {"keyframes_per_minute", r.keyframes_per_minute},
+                          {"keyframes_reduced", r.keyframes_reduced},
+                          {"keyframes_thinned", r.keyframes_thinned},
+                          {"level_changes", r.level_changes},
+                          {"send_quality", r.send_quality},
+                          {"send_scale", r.send_scale},
+                          {"send_density", r.send_density},
+                          {"link_bytes_per_s", r.link_bytes_per_s},
+                          {"link_rtt_ms", r.link_rtt_ms},
+                          {"backlog_s", r.backlog_s}};
   };
   nlohmann::json doc;
   doc["robots"] = nlohmann::json::array();
@@ -201,7 +238,9 @@ std::string to_csv(const BandwidthReport& report) {
   out << "robot_id,keyframes_stored,rejected,bytes_received,frames_seen,vslam_keyframes,"
          "keyframes_sent,keyframes_resent,keyframes_dropped,keyframes_pending,bytes_sent_total,"
          "stream_all_bytes,stream_all_estimated,vslam_keyframe_bytes,vslam_keyframe_estimated,"
-         "saving_vs_stream_all,saving_vs_vslam,keyframes_per_minute\n";
+         "saving_vs_stream_all,saving_vs_vslam,keyframes_per_minute,keyframes_reduced,"
+         "keyframes_thinned,level_changes,send_quality,send_scale,send_density,link_bytes_per_s,"
+         "link_rtt_ms\n";
   auto row = [&](const BandwidthRow& r) {
     out << r.robot_id << ',' << r.keyframes_stored << ',' << r.rejected << ',' << r.bytes_received
         << ',' << r.frames_seen << ',' << r.vslam_keyframes << ',' << r.keyframes_sent << ','
@@ -209,7 +248,9 @@ std::string to_csv(const BandwidthReport& report) {
         << r.bytes_sent_total << ',' << r.stream_all_bytes << ',' << r.stream_all_estimated << ','
         << r.vslam_keyframe_bytes << ',' << r.vslam_keyframe_estimated << ','
         << r.saving_vs_stream_all() << ',' << r.saving_vs_vslam() << ',' << r.keyframes_per_minute
-        << '\n';
+        << ',' << r.keyframes_reduced << ',' << r.keyframes_thinned << ',' << r.level_changes << ','
+        << r.send_quality << ',' << r.send_scale << ',' << r.send_density << ','
+        << r.link_bytes_per_s << ',' << r.link_rtt_ms << '\n';
   };
   for (const auto& r : report.robots) row(r);
   row(report.fleet);

@@ -1,5 +1,7 @@
 // Bandwidth report: per-robot rows, fleet sums, saving ratios, CSV and JSON output.
 #include <gtest/gtest.h>
+
+#include <algorithm>
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
@@ -159,6 +161,39 @@ TEST(BuildBandwidthReport, NoRobotsGivesAnEmptyFleetRow) {
   EXPECT_EQ(report.fleet.robot_id, "FLEET");
   EXPECT_EQ(report.fleet.bytes_received, 0u);
   EXPECT_EQ(report.fleet.saving_vs_stream_all(), 0.0);
+}
+
+// A robot that adapted to its link says what it gave up, in the table, the JSON and the CSV; a
+// robot that did not adds no line.
+TEST(BandwidthReportAdaptation, RobotsThatAdaptedSayWhatTheyGaveUp) {
+  auto adapted = robot("drone_0", 10, 200'000, 9'000'000, 900'000);
+  adapted.latest_stats->keyframes_reduced = 7;
+  adapted.latest_stats->keyframes_thinned = 2;
+  adapted.latest_stats->level_changes = 3;
+  adapted.latest_stats->send_quality = 40;
+  adapted.latest_stats->send_scale = 0.5;
+  adapted.latest_stats->send_density = 2;
+  adapted.latest_stats->link_bytes_per_s = 21'300;
+  adapted.latest_stats->link_rtt_ms = 850;
+  const auto steady = robot("drone_1", 10, 500'000, 9'000'000, 900'000);
+  const BandwidthReport report = build_bandwidth_report({adapted, steady});
+  const std::string table = format_table(report);
+  EXPECT_NE(table.find("link adaptation drone_0: 7 of 11 keyframes sent reduced, 2 held back, 3 "
+                       "level changes; now JPEG q40 at 0.5 of the frame, one in 2; link 21.3 "
+                       "kB/s, round trip 850 ms"),
+            std::string::npos)
+      << table;
+  EXPECT_EQ(table.find("link adaptation drone_1"), std::string::npos);
+  const auto json = nlohmann::json::parse(to_json(report));
+  EXPECT_EQ(json["robots"][0]["keyframes_reduced"], 7);
+  EXPECT_EQ(json["robots"][0]["send_scale"], 0.5);
+  EXPECT_EQ(json["fleet"]["level_changes"], 3);
+  const auto csv = lines_of(to_csv(report));
+  const auto header = fields_of(csv[0]);
+  const auto row = fields_of(csv[1]);
+  ASSERT_EQ(header.size(), row.size());
+  const auto column = std::find(header.begin(), header.end(), "keyframes_reduced") - header.begin();
+  EXPECT_EQ(row[static_cast<std::size_t>(column)], "7");
 }
 
 TEST(BandwidthReportSecurity, ARunWithoutDdsSecuritySaysSoInTheTableAndTheJson) {

@@ -26,6 +26,16 @@ function place(element, html) {
 function megabytes(bytes) { return (bytes / 1e6).toFixed(2) + ' MB'; }
 function times(x) { return x > 0 ? x.toFixed(1) + 'x' : 'n/a'; }
 
+// The level a robot sends at, e.g. "q40 at 0.5, 12 reduced".
+function sending(r) {
+  let text = `q${r.send_quality}`;
+  if (r.send_scale < 1) text += ` at ${r.send_scale}`;
+  if (r.send_density > 1) text += `, 1 in ${r.send_density}`;
+  if (r.keyframes_reduced) text += `, ${r.keyframes_reduced} reduced`;
+  if (r.keyframes_thinned) text += `, ${r.keyframes_thinned} held`;
+  return text;
+}
+
 function showRobots(summary) {
   const body = $('robots').tBodies[0];
   body.replaceChildren();
@@ -36,7 +46,9 @@ function showRobots(summary) {
     const cells = [r.robot_id, r.keyframes_stored, r.rejected, megabytes(r.bytes_received),
       known ? r.frames_seen : 'n/a', known ? megabytes(r.stream_all_bytes) : 'n/a',
       times(r.saving_vs_stream_all), known ? megabytes(r.vslam_keyframe_bytes) : 'n/a',
-      times(r.saving_vs_vslam), r.keyframes_per_minute.toFixed(1)];
+      times(r.saving_vs_vslam), r.keyframes_per_minute.toFixed(1),
+      r.robot_id === 'FLEET' || !known ? (r.keyframes_reduced ? `${r.keyframes_reduced} reduced` : '')
+        : sending(r), known && r.link_bytes_per_s > 0 ? `${(r.link_bytes_per_s / 1e3).toFixed(1)} kB/s` : ''];
     const names = ['robot', 'stored'];
     cells.forEach((text, i) => {
       const cell = row.insertCell();

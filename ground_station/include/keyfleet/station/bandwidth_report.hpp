@@ -30,6 +30,17 @@ struct BandwidthRow {
   bool stream_all_estimated = false;
   std::uint64_t vslam_keyframe_bytes = 0;
   bool vslam_keyframe_estimated = false;
+  // The robot's link adaptation (its latest stats): keyframes sent reduced and held back, level
+  // changes, the level now and its link as it estimates it.
+  std::uint64_t keyframes_reduced = 0;
+  std::uint64_t keyframes_thinned = 0;
+  std::uint64_t level_changes = 0;
+  std::uint32_t send_quality = 0;
+  double send_scale = 1.0;
+  std::uint32_t send_density = 1;
+  double link_bytes_per_s = 0;
+  double link_rtt_ms = 0;
+  double backlog_s = 0;
   bool has_agent_stats = false;
   bool agent_finished = false;
   double keyframes_per_minute = 0;      // over the span the station received them
