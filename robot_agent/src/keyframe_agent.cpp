@@ -13,7 +13,8 @@ KeyframeAgent::KeyframeAgent(const AgentConfig& config, std::unique_ptr<Keyframe
       clock_(clock),
       logger_(std::move(logger)),
       ledger_(config.ledger.baseline_sample_every),
-      sender_(config.link_adaptation, *codec_, config.codec.jpeg_quality, logger_) {}
+      sender_(config.link_adaptation, *codec_, config.codec.jpeg_quality,
+              link_prior_bytes_per_s(config.dds.link), logger_) {}
 
 Keyframe KeyframeAgent::make_keyframe(const Frame& frame, std::vector<std::uint8_t> image) const {
   Keyframe keyframe;

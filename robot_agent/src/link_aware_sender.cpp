@@ -17,13 +17,20 @@ constexpr std::uint64_t kSampleOverhead = 300;
 
 }  // namespace
 
+double link_prior_bytes_per_s(const DdsLinkProfile& link) {
+  constexpr double kWirePerPayload = 1.3;
+  return link.rate_kbit_s * 1000.0 / 8.0 * link.pacing / kWirePerPayload;
+}
+
 LinkAwareSender::LinkAwareSender(const LinkAdaptationConfig& config, const ImageCodec& codec,
-                                 int jpeg_quality, Logger logger)
+                                 int jpeg_quality, double prior_bytes_per_s, Logger logger)
     : config_(config),
       codec_(codec),
       logger_(std::move(logger)),
       estimator_(config.estimator_window_s),
-      controller_(config, jpeg_quality) {}
+      controller_(config, jpeg_quality) {
+  estimator_.set_prior(prior_bytes_per_s);
+}
 
 void LinkAwareSender::station_matched(bool matched, std::int64_t now_ns) {
   if (matched)

@@ -97,6 +97,11 @@ LinkEstimate LinkEstimator::estimate(std::int64_t now_ns) const {
   // without a delivery (a stalled link, rate 0).
   e.known = (acked > 0 && busy_s >= min_busy_s_) || busy_s >= window_s_;
   if (busy_s > 0) e.delivery_bytes_per_s = static_cast<double>(acked) / busy_s;
+  if (!e.known && prior_bytes_per_s_ > 0) {
+    e.delivery_bytes_per_s = prior_bytes_per_s_;
+    e.known = true;
+    e.from_prior = true;
+  }
   e.rtt_s = srtt_s_;
   if (!recent_rtts_.empty())
     e.min_rtt_s = *std::min_element(recent_rtts_.begin(), recent_rtts_.end());

@@ -234,5 +234,65 @@ TEST_F(ShapedLink, RadioLinkWithLossAndSecurityDeliversEveryKeyframeWithinAWireB
             << robot.latency_p95_ms << " ms\n";
 }
 
+// Link adaptation on a link slower than what the drone selects: 100 kbit/s against about
+// 30 KB/s of keyframes (two 320x240 JPEGs at q85 a second). Without adaptation the backlog and
+// the latency grow for the whole flight; with it the agent sends cheaper keyframes and its
+// keyframes wait about its target (3 s), every one delivered, the reductions counted.
+TEST_F(ShapedLink, AdaptiveAgentKeepsItsLatencyNearTheTargetWhereTheFixedOneFallsBehind) {
+  if (const auto reason = mission::netns_unavailable_reason())
+    GTEST_SKIP() << "network namespace part skipped: " << *reason;
+  BandwidthExperimentConfig config;
+  config.name = "ci-adaptation";
+  config.run_root = run_dir_.string();
+  config.drones = {1};
+  config.links = {"netns"};
+  config.security = {"off"};  // the handshake is not what this measures
+  config.link_adaptation = {"off", "on"};
+  config.dds_link = true;
+  config.capture = false;
+  config.idle_window_s = 0;
+  config.offered_bytes_per_s = 30000;
+  LinkProfileConfig profile;
+  profile.name = "100k";
+  profile.rate_kbit_s = 100;
+  config.profiles = {profile};
+  config.mission.agent = shaped_agent("drone_0", 0);
+  config.mission.agent.source.realtime = true;
+  config.mission.agent.source.fps = 10;
+  config.mission.agent.source.max_frames = 150;  // 15 s of flight, 30 keyframes
+  config.mission.agent.outbox.resend_after_s = 60;
+  config.mission.agent.link_adaptation.latency_target_s = 3;
+  config.mission.agent_timeout_s = 240;
+  config.mission.station = delivery_station(station_config());
+  const NetnsRun netns = run_netns(config);
+  ASSERT_EQ(netns.result.missions.size(), 2u) << netns.progress;
+  if (netns.skip) GTEST_SKIP() << *netns.skip;
+  const auto& fixed_run = netns.result.missions[0];
+  const auto& adaptive_run = netns.result.missions[1];
+  ASSERT_FALSE(fixed_run.link_adaptation);
+  ASSERT_TRUE(adaptive_run.link_adaptation);
+  ASSERT_TRUE(fixed_run.ok && adaptive_run.ok) << netns.progress;
+  ASSERT_EQ(fixed_run.robots.size(), 1u);
+  ASSERT_EQ(adaptive_run.robots.size(), 1u);
+  const auto& fixed = fixed_run.robots[0].metrics;
+  const auto& adaptive = adaptive_run.robots[0].metrics;
+  EXPECT_EQ(fixed.delivered, 30u);
+  EXPECT_EQ(adaptive.delivered, 30u);
+  EXPECT_EQ(adaptive.dropped, 0u);
+  EXPECT_EQ(fixed.reduced, 0u);
+  EXPECT_GT(adaptive.reduced, 15u) << "most keyframes must go cheaper on this link";
+  EXPECT_GT(adaptive.level_changes, 0u);
+  // The fixed agent's keyframes wait ever longer; the adaptive one's about the target.
+  EXPECT_GT(fixed.latency_median_ms, 2 * 3000.0);
+  EXPECT_LT(adaptive.latency_median_ms, 3000.0);
+  EXPECT_LT(adaptive.latency_p95_ms, fixed.latency_p95_ms / 2);
+  EXPECT_LT(adaptive.payload_bytes, fixed.payload_bytes / 2);
+  std::cout << "100 kbit/s: fixed latency median " << fixed.latency_median_ms << " ms, p95 "
+            << fixed.latency_p95_ms << " ms, " << fixed.payload_bytes << " B; adaptive median "
+            << adaptive.latency_median_ms << " ms, p95 " << adaptive.latency_p95_ms << " ms, "
+            << adaptive.payload_bytes << " B, " << adaptive.reduced << " reduced, "
+            << adaptive.thinned << " held, " << adaptive.level_changes << " level changes\n";
+}
+
 }  // namespace
 }  // namespace keyfleet::testing

@@ -205,6 +205,27 @@ TEST(LinkEstimator, AStalledLinkLosesItsRateAndAPausedOneKeepsIt) {
   EXPECT_EQ(paused.bytes_in_flight(), 0u);
 }
 
+TEST(LinkEstimator, APriorStandsInUntilTheLinkIsMeasured) {
+  LinkEstimator estimator(10.0);
+  estimator.set_prior(20'000);
+  LinkEstimate e = estimator.estimate(0);
+  EXPECT_TRUE(e.known);
+  EXPECT_TRUE(e.from_prior);
+  EXPECT_EQ(e.delivery_bytes_per_s, 20'000);
+  for (int i = 0; i < 4; ++i) {  // the link turns out to carry 5 kB/s
+    estimator.on_sent(i, 5'000, i * kSecond);
+    estimator.on_acked(i, (i + 1) * kSecond);
+  }
+  e = estimator.estimate(4 * kSecond);
+  EXPECT_FALSE(e.from_prior);
+  EXPECT_NEAR(e.delivery_bytes_per_s, 5'000, 1);
+  DdsLinkProfile radio;
+  radio.rate_kbit_s = 250;
+  radio.pacing = 0.9;
+  EXPECT_NEAR(link_prior_bytes_per_s(radio), 250e3 / 8 * 0.9 / 1.3, 1);
+  EXPECT_EQ(link_prior_bytes_per_s(DdsLinkProfile{}), 0.0);
+}
+
 TEST(SendLadder, QualityThenResolutionThenDensity) {
   const auto ladder = send_ladder(adaptive(), 85);
   ASSERT_EQ(ladder.size(), 8u);
@@ -276,7 +297,7 @@ TEST(LinkAwareSender, ASlowLinkScalesTheFrameAndItsTextRegions) {
   config.max_density = 1;
   config.text_aware = false;
   JpegCodec codec(85);
-  LinkAwareSender sender(config, codec, 85, keyfleet::null_logger());
+  LinkAwareSender sender(config, codec, 85, 0.0, keyfleet::null_logger());
   cv::Mat frame(480, 640, CV_8UC3);
   cv::randu(frame, 0, 255);
   const std::vector<TextRegion> regions = {{100, 50, 201, 41}, {600, 440, 40, 40}};

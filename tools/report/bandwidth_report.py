@@ -92,6 +92,11 @@ def plot_savings(results, out):
     plt.close(fig)
 
 
+def group_of(m):
+    """A mission's series: fleet size, DDS-Security, link adaptation."""
+    return (m["drones"], m.get("security", True), m.get("link_adaptation", False))
+
+
 def plot_latency(results, out):
     links = list(dict.fromkeys(m["link"] for m in results["missions"]))
     fig, axes = plt.subplots(1, len(links), squeeze=False, figsize=(5.5 * len(links), 4))
@@ -99,12 +104,12 @@ def plot_latency(results, out):
         ax = axes[0][col]
         missions = [m for m in results["missions"] if m["link"] == link]
         profiles = list(dict.fromkeys(m["profile"]["name"] for m in missions))
-        groups = sorted({(m["drones"], m.get("security", True)) for m in missions})
+        groups = sorted({group_of(m) for m in missions})
         any_latency = False
-        for k, (n, secure) in enumerate(groups):
+        for k, (n, secure, adapting) in enumerate(groups):
             xs, med, p95 = [], [], []
             for m in missions:
-                if (m["drones"], m.get("security", True)) != (n, secure):
+                if group_of(m) != (n, secure, adapting):
                     continue
                 f = fleet(m)
                 if f["lat_med"] is None:
@@ -113,7 +118,8 @@ def plot_latency(results, out):
                 med.append(f["lat_med"] / 1e3)
                 p95.append(f["lat_p95"] / 1e3)
                 any_latency = any_latency or f["lat_med"] > 0
-            label = f"{n} drones" + ("" if secure else ", no security")
+            label = (f"{n} drones" + ("" if secure else ", no security")
+                     + (", adapting" if adapting else ""))
             ax.scatter(xs, med, label=f"{label}: median", marker="o")
             ax.scatter(xs, p95, marker="^", alpha=0.6, label=f"{label}: worst p95")
         ax.set_xticks(range(len(profiles)))
@@ -136,18 +142,18 @@ def plot_radio(results, out):
     if not missions:
         return False
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4))
-    keys = sorted({(m["drones"], m.get("security", True), m["profile"]["loss_percent"])
-                   for m in missions})
-    for drones, secure, loss in keys:
-        rows = sorted((m["profile"]["rate_kbit_s"], m) for m in missions
-                      if (m["drones"], m.get("security", True), m["profile"]["loss_percent"])
-                      == (drones, secure, loss))
+    keys = sorted({group_of(m) + (m["profile"]["loss_percent"],) for m in missions})
+    for drones, secure, adapting, loss in keys:
+        rows = sorted(((m["profile"]["rate_kbit_s"], m) for m in missions
+                       if group_of(m) + (m["profile"]["loss_percent"],)
+                       == (drones, secure, adapting, loss)), key=lambda row: row[0])
         rates = [rate for rate, _ in rows]
         goodput = [statistics.median([r.get("goodput_fraction") or 0 for r in m["robots"]])
                    for _, m in rows]
         p95 = [(fleet(m)["lat_p95"] or float("nan")) / 1e3 for _, m in rows]
-        style = "-" if secure else "--"
-        label = f'{drones} drones, {loss:g} % loss{"" if secure else ", no security"}'
+        style = ":" if adapting else ("-" if secure else "--")
+        label = (f'{drones} drones, {loss:g} % loss{"" if secure else ", no security"}'
+                 + (", adapting" if adapting else ""))
         left.plot(rates, goodput, style, marker="o", label=label)
         right.plot(rates, p95, style, marker="o", label=label)
     left.set_ylabel("goodput (stored payload / busy time / link rate)")

@@ -7,6 +7,7 @@
 
 #include "keyfleet/agent/link_estimator.hpp"
 #include "keyfleet/agent/send_controller.hpp"
+#include "keyfleet/common/config.hpp"
 #include "keyfleet/common/image_codec.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/types.hpp"
@@ -18,10 +19,17 @@ namespace keyfleet::agent {
 // quality, then the frame scaled down, or with text_aware only its background: level_encoding.hpp).
 // With adaptation
 // off it only estimates the link, and every keyframe goes at the richest level.
+// The sample bytes a second a radio link of this profile is believed to carry before the agent
+// has measured it: the configured rate and pacing, less the RTPS, UDP, IP and security headers
+// around MTU-sized messages (a third more on the wire, as measured on the emulated links). 0 for
+// a link without a rate (a LAN, one machine).
+double link_prior_bytes_per_s(const DdsLinkProfile& link);
+
 class LinkAwareSender {
  public:
+  // prior_bytes_per_s: what the link is believed to deliver until measured (0: nothing).
   LinkAwareSender(const LinkAdaptationConfig& config, const ImageCodec& codec, int jpeg_quality,
-                  Logger logger);
+                  double prior_bytes_per_s, Logger logger);
 
   struct Encoded {
     std::vector<std::uint8_t> image;

@@ -18,6 +18,7 @@ struct LinkEstimate {
   double rtt_s = 0;                 // smoothed hand-over to acknowledgement, first sends only
   double min_rtt_s = 0;             // the least of the recent ones
   bool known = false;               // the rate means something (see estimate())
+  bool from_prior = false;          // nothing measured yet: the rate is the configured prior
 };
 
 class LinkEstimator {
@@ -37,6 +38,10 @@ class LinkEstimator {
   // No station matched: the link is not busy until one is (resume()).
   void pause(std::int64_t now_ns);
   void resume(std::int64_t now_ns);
+
+  // What the link is believed to deliver before anything is measured (e.g. from the radio's
+  // configured rate); 0 = no belief: the estimate stays unknown until measured.
+  void set_prior(double bytes_per_s) { prior_bytes_per_s_ = bytes_per_s; }
 
   std::uint64_t bytes_in_flight() const { return in_flight_bytes_; }
   LinkEstimate estimate(std::int64_t now_ns) const;
@@ -59,6 +64,7 @@ class LinkEstimator {
   double window_s_;
   double min_busy_s_;
   double max_age_s_;
+  double prior_bytes_per_s_ = 0;
   std::map<std::uint64_t, Flight> flights_;
   std::uint64_t in_flight_bytes_ = 0;
   std::deque<Segment> segments_;  // newest last, trimmed to window_s_ of busy time
