@@ -13,6 +13,7 @@ namespace {
 
 constexpr double kSelectionWindowS = 30.0;  // the selection rate is taken over this long
 constexpr double kCostGain = 0.3;           // a new cost moves the learnt one this much
+constexpr double kOverrun = 1.15;           // offered over budget that steps down at once
 
 // A baseline JPEG's size against its quality on camera frames, relative to quality 85 (libjpeg's
 // quantisation scaling; measured sizes replace it as soon as there are any).
@@ -158,7 +159,12 @@ std::optional<LevelChange> SendController::update(std::int64_t now_ns, const Lin
     density_counter_ = 0;
     return c;
   };
-  if (fit > level_ || (std::isinf(wait) && level_ + 1 < ladder_.size())) {
+  // Down at once when the backlog waits half the target or the current level clearly overruns
+  // the budget; a level a little over it (a cost estimate's noise) waits until the backlog says
+  // so, which keeps a link near a rung's cost from flapping between two rungs.
+  const bool overrun =
+      fit > level_ && (wait > target / 2 || offered_bytes_per_s(level_) > kOverrun * budget);
+  if (overrun || (std::isinf(wait) && level_ + 1 < ladder_.size())) {
     const std::size_t to = std::isinf(wait) ? ladder_.size() - 1 : fit;
     return change(to, fmt::format("backlog {:.1f} s at {:.1f} kB/s, {:.1f} kB/s offered at the "
                                   "current level (target {:g} s)",
