@@ -52,6 +52,19 @@ struct SimLink {
       }
     }
   }
+  // The acknowledgements due by now, in the order they were carried.
+  std::vector<std::pair<std::int64_t, Item>> take_acks(std::int64_t now_ns) {
+    std::vector<std::pair<std::int64_t, Item>> due;
+    for (auto it = acks_due.begin(); it != acks_due.end();) {
+      if (it->first <= now_ns) {
+        due.push_back(*it);
+        it = acks_due.erase(it);
+      } else {
+        ++it;
+      }
+    }
+    return due;
+  }
 };
 
 struct Delivery {
@@ -92,21 +105,14 @@ Trace fly(const LinkAdaptationConfig& config, RateAt rate_at, int seconds) {
     controller.on_cost(i,
                        static_cast<std::uint64_t>(50'000 * relative[std::min(i, std::size_t(5))]));
   std::uint64_t sequence = 0;
-  std::deque<std::pair<std::uint64_t, std::size_t>> held;  // thinned: sent when the queue empties
   std::vector<std::size_t> level_of;
   const std::int64_t step = 10 * kMs;
   for (std::int64_t now = 0; now < seconds * kSecond; now += step) {
     const double rate = rate_at(static_cast<double>(now) * 1e-9);
     link.advance(now, step, rate);
-    for (auto it = link.acks_due.begin(); it != link.acks_due.end();) {
-      if (it->first <= now) {
-        estimator.on_acked(it->second.sequence, it->first);
-        trace.deliveries.push_back(
-            {it->second.selected_ns, it->first, level_of[it->second.sequence]});
-        it = link.acks_due.erase(it);
-      } else {
-        ++it;
-      }
+    for (const auto& [at, item] : link.take_acks(now)) {
+      estimator.on_acked(item.sequence, at);
+      trace.deliveries.push_back({item.selected_ns, at, level_of[item.sequence]});
     }
     controller.update(now, estimator.estimate(now), estimator.bytes_in_flight());
     if (now % kSecond == 0) {
@@ -141,13 +147,7 @@ TEST(LinkEstimator, SteadyBackloggedLinkGivesItsRate) {
   std::uint64_t sequence = 0;
   for (std::int64_t now = 0; now < 30 * kSecond; now += step) {
     link.advance(now, step, 20'000);
-    for (auto it = link.acks_due.begin(); it != link.acks_due.end();)
-      if (it->first <= now) {
-        estimator.on_acked(it->second.sequence, it->first);
-        it = link.acks_due.erase(it);
-      } else {
-        ++it;
-      }
+    for (const auto& [at, item] : link.take_acks(now)) estimator.on_acked(item.sequence, at);
     if (now % (500 * kMs) == 0) {  // 30 kB/s offered on a 20 kB/s link: always busy
       estimator.on_sent(sequence, 15'000, now);
       link.send(sequence++, 15'000, now);
