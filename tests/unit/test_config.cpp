@@ -523,7 +523,8 @@ TEST(ShippedConfigs, EveryScenarioAndMissionFileInConfigsLoads) {
   }
   EXPECT_GT(scenarios, 0);
   EXPECT_GT(missions, 0);
-  EXPECT_EQ(evaluations, 2);  // eval.yaml (the demo's street), eval_side.yaml
+  // eval.yaml (the demo's street), eval_side.yaml, eval_encodings.yaml (issue 30's encodings)
+  EXPECT_EQ(evaluations, 3);
   EXPECT_EQ(experiments, 3);  // experiment_bandwidth{,_radio,_adaptation}.yaml
 }
 

@@ -115,12 +115,12 @@ TEST(Bytes, SumsEverySendOfKnownFrames) {
 }
 
 TEST(Summary, SumsCountsAndAveragesRecallsOverDrones) {
-  std::vector<WordScore> words = {{"d0", "full", 0.5, 100, 50, 10, 8, 5, 1000},
-                                  {"d1", "full", 0.5, 80, 40, 20, 10, 4, 500},
-                                  {"d0", "vslam", 0.5, 100, 50, 10, 7, 3, 900}};
-  PlaceScore a{"d0", "d1", "full", "bow", 0.5, 40, 2, {}};
+  std::vector<WordScore> words = {{"d0", "full", 0.5, 100, 50, 10, 8, 5, 1000, ""},
+                                  {"d1", "full", 0.5, 80, 40, 20, 10, 4, 500, ""},
+                                  {"d0", "vslam", 0.5, 100, 50, 10, 7, 3, 900, ""}};
+  PlaceScore a{"d0", "d1", "full", "bow", 0.5, 40, 2, {}, ""};
   a.topk = {10, 4, 8};
-  PlaceScore b{"d1", "d0", "full", "bow", 0.5, 50, 0, {}};
+  PlaceScore b{"d1", "d0", "full", "bow", 0.5, 50, 0, {}, ""};
   b.topk = {10, 6, 9};
   const auto s = summarise(words, {a, b}, {"vslam", "full"}, {0.5});
   ASSERT_EQ(s.size(), 2u);

@@ -37,12 +37,31 @@ std::string default_out() {
 }
 
 void print_summary(const eval::EvalResults& r) {
-  std::printf("\n%-9s %6s %5s %11s %11s %7s %7s %9s\n", "strategy", "kept", "kf", "words read",
-              "words full", "top-1", "top-5", "MB sent");
-  for (const auto& p : r.summary)
+  const bool encodings = !r.encodings.empty();
+  std::printf("\n%s%-9s %6s %5s %11s %11s %7s %7s %9s\n", encodings ? "encoding     " : "",
+              "strategy", "kept", "kf", "words read", "words full", "top-1", "top-5", "MB sent");
+  for (const auto& p : r.summary) {
+    if (encodings) std::printf("%-12s ", p.encoding.c_str());
     std::printf("%-9s %5.0f%% %5zu %5zu/%-5zu %5zu/%-5zu %7.3f %7.3f %9.2f\n", p.strategy.c_str(),
                 100 * p.density, p.keyframes, p.words_read, p.words_in_sequence, p.full_words,
                 p.words_in_sequence, p.topk.top1_rate(), p.topk.top5_rate(), p.bytes / 1e6);
+  }
+  if (!encodings) return;
+  // Issue 30: information per byte, each encoding against the first.
+  std::printf("\n%-12s %-9s %6s %8s %11s %7s", "encoding", "strategy", "kept", "kB/kf",
+              "words read", ("% " + r.encodings.front().name).c_str());
+  for (const auto& mode : r.place_retrievals) std::printf(" %12s", ("top-1 " + mode).c_str());
+  std::printf("\n");
+  for (const auto& p : eval::compare_encodings(r)) {
+    std::printf("%-12s %-9s %5.0f%% %8.1f %5zu/%-5zu %6.1f%%", p.encoding.c_str(),
+                p.strategy.c_str(), 100 * p.density, p.kb_per_keyframe, p.words_read,
+                p.words_in_sequence, 100 * p.words_vs_reference);
+    for (const auto& mode : r.place_retrievals) {
+      const auto it = p.top1.find(mode);
+      std::printf(" %12.3f", it == p.top1.end() ? 0.0 : it->second);
+    }
+    std::printf("\n");
+  }
 }
 
 void print_seed_summary(const std::vector<eval::SeedPoint>& points, std::size_t seeds) {
@@ -61,6 +80,11 @@ void run_seeds(const EvalConfig& base, const EvalOptions& o, const std::string& 
                Logger logger) {
   if (!base.scenario_dir.empty())
     throw StartupError("--seeds generates one street per seed: give no scenario_dir");
+  if (base.encodings.size() > 1)
+    throw StartupError(
+        "--seeds aggregates one encoding per strategy and density: list at most "
+        "one under encodings (the config lists " +
+        std::to_string(base.encodings.size()) + ")");
   std::vector<eval::EvalResults> runs;
   for (const std::uint64_t seed : o.seeds) {
     EvalConfig config = base;
@@ -108,8 +132,8 @@ void run_eval_command(const EvalOptions& o) {
   std::string problem;
   if (!eval::plot_results(out, o.python, problem)) logger->warn("no plots: {}", problem);
   print_summary(results);
-  std::printf("\n%s/report.md, results.json, results.csv, fig6a_words.png, fig6b_places.png\n",
-              out.c_str());
+  std::printf("\n%s/report.md, results.json, results.csv, fig6a_words.png, fig6b_places.png%s\n",
+              out.c_str(), results.encodings.empty() ? "" : ", fig_encodings.png");
 }
 
 }  // namespace

@@ -1,11 +1,26 @@
 #include "keyfleet/eval/eval_config.hpp"
 
+#include <set>
+
 #include "keyfleet/agent/agent_config_yaml.hpp"
 #include "keyfleet/common/config_yaml.hpp"
 #include "keyfleet/station/places/place_recognition_config.hpp"
 #include "keyfleet/station/text/text_reading_config_yaml.hpp"
 
 namespace keyfleet {
+
+template <class V>
+void visit(V& v, EvalEncoding& c) {
+  v.field("name", c.name, file_name_check(32));
+  v.field("jpeg_quality", c.jpeg_quality, between(1, 100));
+  v.field("scale", c.scale,
+          Check<double>(
+              [](double s) {
+                return s > 0 && s <= 1 ? std::string() : std::string("must be in (0, 1]");
+              },
+              "(0, 1]"));
+  v.field("text_aware", c.text_aware);
+}
 
 template <class V>
 void visit(V& v, EvalConfig& c) {
@@ -26,6 +41,19 @@ void visit(V& v, EvalConfig& c) {
   v.field("drones", c.drones);
   v.section("selector", c.selector);
   v.section("codec", c.codec);
+  v.field("encodings", c.encodings,
+          Check<std::vector<EvalEncoding>>(
+              [](const std::vector<EvalEncoding>& list) {
+                std::set<std::string> names;
+                for (const auto& e : list) {
+                  if (e.name.empty()) return std::string("each needs a name");
+                  if (!names.insert(e.name).second)
+                    return "names must be unique ('" + e.name + "' twice)";
+                }
+                return std::string();
+              },
+              "names given and unique"));
+  v.field("text_margin_px", c.text_margin_px, between(0, 1000));
   v.field("vocabulary", c.vocabulary);
   v.field("orb_features", c.orb_features, between(100, 20000));
   v.field("place_retrievals", c.place_retrievals,

@@ -2,6 +2,7 @@
 // point, plus the summed rows) and report.md (tables, plots, the paper's claims checked).
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
@@ -30,6 +31,7 @@ std::string format(const char* fmt, ...) {
 
 nlohmann::json to_json(const PointSummary& p) {
   return {{"strategy", p.strategy},
+          {"encoding", p.encoding},
           {"density", p.density},
           {"keyframes", p.keyframes},
           {"vslam_keyframes", p.vslam_keyframes},
@@ -47,6 +49,7 @@ nlohmann::json to_json(const PointSummary& p) {
 PointSummary summary_from_json(const nlohmann::json& j) {
   PointSummary p;
   p.strategy = j.at("strategy");
+  p.encoding = j.value("encoding", std::string());  // absent before encodings
   p.density = j.at("density");
   p.keyframes = j.at("keyframes");
   p.vslam_keyframes = j.at("vslam_keyframes");
@@ -64,17 +67,17 @@ PointSummary summary_from_json(const nlohmann::json& j) {
 
 std::string csv(const EvalResults& r) {
   std::ostringstream out;
-  out << "scope,strategy,density,keyframes,vslam_keyframes,words_in_sequence,full_words,"
+  out << "scope,encoding,strategy,density,keyframes,vslam_keyframes,words_in_sequence,full_words,"
          "words_read,word_recall,bytes,place_queries,top1,top5\n";
   for (const auto& w : r.words)
-    out << w.drone << "," << w.strategy << "," << w.density << "," << w.keyframes << ","
-        << w.vslam_keyframes << "," << w.words_in_sequence << "," << w.full_words << ","
-        << w.words_read << ","
+    out << w.drone << "," << w.encoding << "," << w.strategy << "," << w.density << ","
+        << w.keyframes << "," << w.vslam_keyframes << "," << w.words_in_sequence << ","
+        << w.full_words << "," << w.words_read << ","
         << (w.words_in_sequence ? double(w.words_read) / double(w.words_in_sequence) : 0.0) << ","
         << w.bytes << ",,,\n";
   for (const auto& p : r.summary)
-    out << "all," << p.strategy << "," << p.density << "," << p.keyframes << ","
-        << p.vslam_keyframes << "," << p.words_in_sequence << "," << p.full_words << ","
+    out << "all," << p.encoding << "," << p.strategy << "," << p.density << "," << p.keyframes
+        << "," << p.vslam_keyframes << "," << p.words_in_sequence << "," << p.full_words << ","
         << p.words_read << "," << p.word_recall << "," << p.bytes << "," << p.topk.queries << ","
         << p.topk.top1_rate() << "," << p.topk.top5_rate() << "\n";
   return out.str();
@@ -120,7 +123,86 @@ std::string compare(const EvalResults& r, const std::string& a, const std::strin
          out + ")";
 }
 
+// The results of one encoding only (its summaries), for the per-encoding tables.
+EvalResults only_encoding(const EvalResults& r, const std::string& encoding) {
+  EvalResults one = r;
+  auto keep = [&](std::vector<PointSummary> points) {
+    points.erase(std::remove_if(points.begin(), points.end(),
+                                [&](const PointSummary& p) { return p.encoding != encoding; }),
+                 points.end());
+    return points;
+  };
+  one.summary = keep(r.summary);
+  for (auto& [mode, points] : one.summary_by_retrieval) points = keep(points);
+  return one;
+}
+
+std::string encodings_section(const EvalResults& r) {
+  const auto points = compare_encodings(r);
+  if (points.empty()) return {};
+  std::ostringstream md;
+  md << "## Encodings (information per byte)\n\nEach selected keyframe encoded as the agent's "
+        "send ladder would (JPEG quality, scale, text-aware: the frame's size kept, its text "
+        "regions at full detail, the background coarsened), decoded, and read and described "
+        "from the decoded image; queries stay the query drone's camera frames. Relative to `"
+     << r.encodings.front().name << "` at the same strategy and density.\n\n";
+  md << "| encoding | quality | scale | text-aware | strategy | kept | keyframes | kB / keyframe "
+        "| words read | % of "
+     << r.encodings.front().name << " | recall |";
+  std::string rule = "|---|---|---|---|---|---|---|---|---|---|---|";
+  for (const auto& mode : r.place_retrievals) md << " top-1 " << mode << " |", rule += "---|";
+  md << "\n" << rule << "\n";
+  for (const auto& p : points) {
+    const EvalEncoding* e = nullptr;
+    for (const auto& candidate : r.encodings)
+      if (candidate.name == p.encoding) e = &candidate;
+    md << format("| %s | %d | %.2f | %s | %s | %.0f %% | %zu | %.1f | %zu | %.1f %% | %.3f |",
+                 p.encoding.c_str(), e ? e->jpeg_quality : 0, e ? e->scale : 0.0,
+                 e && e->text_aware ? "yes" : "no", p.strategy.c_str(), 100 * p.density,
+                 p.keyframes, p.kb_per_keyframe, p.words_read, 100 * p.words_vs_reference,
+                 p.word_recall);
+    for (const auto& mode : r.place_retrievals) {
+      const auto it = p.top1.find(mode);
+      const auto d = p.top1_vs_reference.find(mode);
+      md << format(" %.3f (%+.1f) |", it == p.top1.end() ? 0.0 : it->second,
+                   d == p.top1_vs_reference.end() ? 0.0 : 100 * d->second);
+    }
+    md << "\n";
+  }
+  md << "\nTop-1 in brackets: points against the reference. Words read and top-1 for every "
+        "encoding, strategy and density follow in the tables below, one set per encoding.\n\n"
+        "![words read and top-1 against kB per keyframe](fig_encodings.png)\n\n";
+  return md.str();
+}
+
+std::string report_tables(const EvalResults& r);
+std::string cost_section(const EvalResults& r);
+
 std::string report(const EvalResults& r) {
+  if (r.encodings.empty()) return report_tables(r) + cost_section(r);
+  std::ostringstream md;
+  md << "# keyfleet eval: information per byte, " << r.encodings.size()
+     << " encodings on a generated scenario\n\n";
+  md << encodings_section(r);
+  for (const auto& e : r.encodings) {
+    std::string part = report_tables(only_encoding(r, e.name));
+    // One encoding's Fig. 6 under its own heading, its sections a level down.
+    std::string shifted;
+    std::istringstream lines(part);
+    for (std::string line; std::getline(lines, line);) {
+      if (line.rfind("# ", 0) == 0)
+        line = "# Encoding `" + e.name + "` (JPEG " + std::to_string(e.jpeg_quality) +
+               format(", scale %.2f", e.scale) + (e.text_aware ? ", text-aware" : "") + ")";
+      if (!line.empty() && line[0] == '#') line = "#" + line;
+      shifted += line + "\n";
+    }
+    md << shifted << "\n";
+  }
+  md << cost_section(r);
+  return md.str();
+}
+
+std::string report_tables(const EvalResults& r) {
   std::ostringstream md;
   md << "# keyfleet eval: Fig. 6 of Alonso et al. (ICRA 2019) on a generated scenario\n\n";
   md << "Scenario `" << r.scenario_name << "` (seed " << r.scenario_seed << ", " << r.scenario_dir
@@ -189,6 +271,12 @@ std::string report(const EvalResults& r) {
     md << format("\nOne query is %.1f points of accuracy at a density; one word is one count.\n",
                  100.0 / double(one->topk.queries));
 
+  return md.str();
+}
+
+// What the whole evaluation cost (every encoding's together).
+std::string cost_section(const EvalResults& r) {
+  std::ostringstream md;
   const auto& c = r.cost;
   md << "\n## Cost\n\n";
   md << format(
@@ -200,6 +288,12 @@ std::string report(const EvalResults& r) {
       c.frames, c.trigger_ms_per_frame, c.selection_runs, c.selection_cpu_ms / 1e3,
       c.segmenter_requests, c.segmenter_frames, c.segmenter_cpu_ms / 1e3, c.ocr_frames,
       c.ocr_wall_s, c.ocr_median_ms, c.orb_frames, c.orb_ms / 1e3, c.wall_s);
+  if (c.encoded_frames)
+    md << format(
+        "\nEncodings: %zu frames encoded and decoded (each distinct selected frame once per "
+        "encoding: the text reader and ORB counts above are these, plus the queries' ORB), "
+        "%.1f s.\n",
+        c.encoded_frames, c.encode_ms / 1e3);
   return md.str();
 }
 
@@ -210,6 +304,43 @@ const PointSummary* find_point(const std::vector<PointSummary>& summary,
   for (const auto& p : summary)
     if (p.strategy == strategy && p.density == density) return &p;
   return nullptr;
+}
+
+const PointSummary* find_point(const std::vector<PointSummary>& summary,
+                               const std::string& strategy, double density,
+                               const std::string& encoding) {
+  for (const auto& p : summary)
+    if (p.strategy == strategy && p.density == density && p.encoding == encoding) return &p;
+  return nullptr;
+}
+
+std::vector<EncodingPoint> compare_encodings(const EvalResults& r) {
+  std::vector<EncodingPoint> out;
+  if (r.encodings.empty()) return out;
+  const std::string& reference = r.encodings.front().name;
+  for (const auto& p : r.summary) {
+    EncodingPoint e;
+    e.encoding = p.encoding;
+    e.strategy = p.strategy;
+    e.density = p.density;
+    e.keyframes = p.keyframes;
+    e.kb_per_keyframe = p.keyframes ? double(p.bytes) / double(p.keyframes) / 1e3 : 0.0;
+    e.words_read = p.words_read;
+    e.words_in_sequence = p.words_in_sequence;
+    e.word_recall = p.word_recall;
+    const PointSummary* ref = find_point(r.summary, p.strategy, p.density, reference);
+    if (ref && ref->words_read)
+      e.words_vs_reference = double(p.words_read) / double(ref->words_read);
+    for (const auto& [mode, summary] : r.summary_by_retrieval) {
+      const PointSummary* mine = find_point(summary, p.strategy, p.density, p.encoding);
+      const PointSummary* theirs = find_point(summary, p.strategy, p.density, reference);
+      if (!mine) continue;
+      e.top1[mode] = mine->topk.top1_rate();
+      if (theirs) e.top1_vs_reference[mode] = mine->topk.top1_rate() - theirs->topk.top1_rate();
+    }
+    out.push_back(std::move(e));
+  }
+  return out;
 }
 
 void write_results(const EvalResults& r, const std::string& out_dir) {
@@ -224,12 +355,33 @@ void write_results(const EvalResults& r, const std::string& out_dir) {
   j["place_tolerance_m"] = r.place_tolerance_m;
   j["query_every"] = r.query_every;
   j["jpeg_quality"] = r.jpeg_quality;
+  j["encodings"] = nlohmann::json::array();
+  for (const auto& e : r.encodings)
+    j["encodings"].push_back({{"name", e.name},
+                              {"jpeg_quality", e.jpeg_quality},
+                              {"scale", e.scale},
+                              {"text_aware", e.text_aware}});
+  j["place_retrievals"] = r.place_retrievals;
+  j["encoding_points"] = nlohmann::json::array();
+  for (const auto& p : compare_encodings(r))
+    j["encoding_points"].push_back({{"encoding", p.encoding},
+                                    {"strategy", p.strategy},
+                                    {"density", p.density},
+                                    {"keyframes", p.keyframes},
+                                    {"kb_per_keyframe", p.kb_per_keyframe},
+                                    {"words_read", p.words_read},
+                                    {"words_in_sequence", p.words_in_sequence},
+                                    {"word_recall", p.word_recall},
+                                    {"words_vs_reference", p.words_vs_reference},
+                                    {"top1", p.top1},
+                                    {"top1_vs_reference", p.top1_vs_reference}});
   j["summary"] = nlohmann::json::array();
   for (const auto& p : r.summary) j["summary"].push_back(to_json(p));
   j["words"] = nlohmann::json::array();
   for (const auto& w : r.words)
     j["words"].push_back({{"drone", w.drone},
                           {"strategy", w.strategy},
+                          {"encoding", w.encoding},
                           {"density", w.density},
                           {"vslam_keyframes", w.vslam_keyframes},
                           {"keyframes", w.keyframes},
@@ -242,6 +394,7 @@ void write_results(const EvalResults& r, const std::string& out_dir) {
     j["places"].push_back({{"query_drone", p.query_drone},
                            {"database_drone", p.database_drone},
                            {"strategy", p.strategy},
+                           {"encoding", p.encoding},
                            {"retrieval", p.retrieval},
                            {"density", p.density},
                            {"database_keyframes", p.database_keyframes},
@@ -262,6 +415,8 @@ void write_results(const EvalResults& r, const std::string& out_dir) {
                {"ocr_median_ms", c.ocr_median_ms},
                {"orb_frames", c.orb_frames},
                {"orb_ms", c.orb_ms},
+               {"encoded_frames", c.encoded_frames},
+               {"encode_ms", c.encode_ms},
                {"wall_s", c.wall_s}};
   const fs::path dir(out_dir);
   write_file(dir / "results.json", j.dump(2) + "\n");

@@ -9,6 +9,18 @@
 
 namespace keyfleet {
 
+// One way of sending the selected keyframes (issue 30: information per byte). The frame is
+// encoded as the agent's send ladder would (agent/level_encoding.hpp: JPEG at jpeg_quality,
+// resized to `scale`, or with text_aware the frame's size kept, every pixel of its text regions
+// kept and only the background coarsened), decoded, and read and described from the decoded
+// image, at its own size.
+struct EvalEncoding {
+  std::string name;       // [A-Za-z0-9_.-]{1,32}, unique in the list
+  int jpeg_quality = 85;  // 1..100
+  double scale = 1.0;     // of the frame's width and height, in (0, 1]
+  bool text_aware = false;
+};
+
 // `keyfleet eval` (configs/eval.yaml): the first seed's Fig. 6 on a generated scenario.
 struct EvalConfig {
   ScenarioConfig scenario;   // generated into <out>/scenario unless scenario_dir is set
@@ -19,6 +31,12 @@ struct EvalConfig {
   std::vector<std::string> drones;  // empty = every drone of the scenario
   SelectorConfig selector;          // the agent's selection; strategy and density set per point
   CodecConfig codec;                // the agent's JPEG quality (bytes sent)
+  // Encodings compared (each strategy and density evaluated once per encoding; the first is
+  // the reference the others are measured against). Empty (the default): today's Fig. 6, the
+  // words read and the places described from the raw camera frames, bytes counted as the
+  // frame's JPEG at codec.jpeg_quality.
+  std::vector<EvalEncoding> encodings;
+  int text_margin_px = 4;  // text-aware encodings: pixels kept around each text region
   std::string vocabulary = "orb_vocabulary.bin";  // place recognition (a bare name: shipped)
   int orb_features = 1000;
   // Fig. 6b's retrieval modes (as station.yaml's analysis.places.retrieval): each is scored;

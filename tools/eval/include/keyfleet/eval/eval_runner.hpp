@@ -3,7 +3,8 @@
 // For each strategy and kept fraction of the V-SLAM keyframes: (a) words the station's text reader
 // reads in the selected keyframes, against the words fully visible in the sequence, (b) place
 // recognition top-1/top-5 from one drone's frames against another day's drone's selected keyframes,
-// (c) bytes sent.
+// (c) bytes sent. With encodings (EvalConfig::encodings), all of it once per encoding: the
+// keyframes encoded as the agent's send ladder would, decoded, then read and described.
 #include <cstdint>
 #include <map>
 #include <string>
@@ -15,7 +16,7 @@
 
 namespace keyfleet::eval {
 
-// One drone, strategy and density. Word counts are distinct signs.
+// One drone, strategy, density and encoding. Word counts are distinct signs.
 struct WordScore {
   std::string drone, strategy;
   double density = 1;
@@ -24,7 +25,8 @@ struct WordScore {
   std::size_t words_in_sequence = 0;  // legible and fully visible in some frame
   std::size_t full_words = 0;         // of those, fully visible in a selected frame
   std::size_t words_read = 0;         // of those, read by the text reader in a selected frame
-  std::uint64_t bytes = 0;            // JPEG at the agent's quality
+  std::uint64_t bytes = 0;            // JPEG at the agent's quality, or at the encoding's
+  std::string encoding;  // the EvalEncoding's name; "" for the raw frames (no encodings listed)
 };
 
 // Queries from one drone's frames against another drone's selected keyframes.
@@ -35,6 +37,7 @@ struct PlaceScore {
   std::size_t database_keyframes = 0;
   std::size_t unanswerable = 0;  // queries no frame of the database drone is near: left out
   TopK topk;
+  std::string encoding;  // of the database keyframes ("" raw); the queries are camera frames
 };
 
 // A strategy at one density, over every drone (word counts and bytes summed; recalls are
@@ -48,6 +51,7 @@ struct PointSummary {
   double full_word_recall = 0;  // words fully visible in a selected frame / words in sequence
   std::uint64_t bytes = 0;
   TopK topk;
+  std::string encoding;  // "" for the raw frames
 };
 
 struct EvalCost {
@@ -61,8 +65,10 @@ struct EvalCost {
   std::size_t ocr_frames = 0;  // distinct selected frames, each read once
   double ocr_wall_s = 0;
   double ocr_median_ms = 0;    // per frame, one reader
-  std::size_t orb_frames = 0;  // queries and distinct selected frames
+  std::size_t orb_frames = 0;  // queries and distinct selected frames (each encoding's)
   double orb_ms = 0;
+  std::size_t encoded_frames = 0;  // distinct selected frames encoded and decoded, all encodings
+  double encode_ms = 0;
   double wall_s = 0;
 };
 
@@ -83,8 +89,29 @@ struct EvalResults {
   std::vector<PointSummary> summary;
   // The summary's place figures with each retrieval mode (words and bytes as in summary).
   std::map<std::string, std::vector<PointSummary>> summary_by_retrieval;
+  // The encodings compared, in the config's order (the first is the reference); empty when
+  // the raw frames were evaluated.
+  std::vector<EvalEncoding> encodings;
   EvalCost cost;
 };
+
+// One encoding at one strategy and density, beside the reference encoding (the first) at the
+// same strategy and density: what issue 30 asks of each encoding.
+struct EncodingPoint {
+  std::string encoding, strategy;
+  double density = 1;
+  std::size_t keyframes = 0;
+  double kb_per_keyframe = 0;  // mean bytes of a keyframe sent / 1000
+  std::size_t words_read = 0, words_in_sequence = 0;
+  double word_recall = 0;
+  double words_vs_reference = 0;       // words read / the reference's (0 when it read none)
+  std::map<std::string, double> top1;  // per retrieval mode
+  std::map<std::string, double> top1_vs_reference;  // minus the reference's, per mode
+};
+
+// Every (encoding, strategy, density) of the results' summaries, in the summaries' order;
+// empty when the results hold no encodings.
+std::vector<EncodingPoint> compare_encodings(const EvalResults& results);
 
 // The scenario to evaluate: config.scenario_dir when set, else <out_dir>/scenario, generated
 // from config.scenario unless a scenario is already there. Throws StartupError.
@@ -94,15 +121,22 @@ std::string prepare_scenario(const EvalConfig& config, const std::string& out_di
 // vocabulary, drone or frame.
 EvalResults run_eval(const EvalConfig& config, const std::string& scenario_dir, Logger logger);
 
-// The summary's point for a strategy and density; nullptr when it has none.
+// The summary's point for a strategy and density (the first encoding's when it holds several);
+// nullptr when it has none.
 const PointSummary* find_point(const std::vector<PointSummary>& summary,
                                const std::string& strategy, double density);
+// The same for one encoding.
+const PointSummary* find_point(const std::vector<PointSummary>& summary,
+                               const std::string& strategy, double density,
+                               const std::string& encoding);
 
-// Sums and means per (strategy, density), in the order of `strategies` then `densities`.
+// Sums and means per (encoding, strategy, density), in the order of `encodings`, then
+// `strategies`, then `densities` ("" names the raw frames' rows).
 std::vector<PointSummary> summarise(const std::vector<WordScore>& words,
                                     const std::vector<PlaceScore>& places,
                                     const std::vector<std::string>& strategies,
-                                    const std::vector<double>& densities);
+                                    const std::vector<double>& densities,
+                                    const std::vector<std::string>& encodings = {""});
 
 // results.json, results.csv and report.md in out_dir (the plots are plot_eval.py's).
 void write_results(const EvalResults& results, const std::string& out_dir);
