@@ -141,10 +141,8 @@ TEST(EncodingComparison, MeasuresEachEncodingAgainstTheFirst) {
   EXPECT_TRUE(compare_encodings(r).empty());
 }
 
-TEST(EvalRun, TinyScenarioGivesFilesAndSaneFigures) {
-  const fs::path out = fs::temp_directory_path() / ("keyfleet-eval-" + std::to_string(::getpid()));
-  fs::remove_all(out);
-  EvalConfig config = parse_eval_config(R"(
+// A tiny generated street (2 drones on 2 days, 40 frames each) that the end-to-end runs share.
+constexpr const char* kTinyScenario = R"(
 scenario:
   name: tiny
   seed: 3
@@ -156,7 +154,12 @@ scenario:
     # One font folder: whatever else is installed (symbol fonts) must not matter here.
     font_folders: [/usr/share/fonts/truetype/dejavu]
   drones: {count: 2, days: 2}
-strategies: [vslam, quality]
+)";
+
+TEST(EvalRun, TinyScenarioGivesFilesAndSaneFigures) {
+  const fs::path out = fs::temp_directory_path() / ("keyfleet-eval-" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  EvalConfig config = parse_eval_config(std::string(kTinyScenario) + R"(strategies: [vslam, quality]
 densities: [1.0, 0.5]
 query_every: 5
 )",
@@ -215,18 +218,7 @@ TEST(EvalRun, TinyScenarioComparesTwoEncodings) {
   const fs::path out =
       fs::temp_directory_path() / ("keyfleet-eval-enc-" + std::to_string(::getpid()));
   fs::remove_all(out);
-  EvalConfig config = parse_eval_config(R"(
-scenario:
-  name: tiny
-  seed: 3
-  frames_per_drone: 40
-  width: 320
-  height: 240
-  street: {length_m: 40}
-  textures:
-    font_folders: [/usr/share/fonts/truetype/dejavu]
-  drones: {count: 2, days: 2}
-strategies: [full]
+  EvalConfig config = parse_eval_config(std::string(kTinyScenario) + R"(strategies: [full]
 densities: [1.0]
 place_retrievals: [bow]
 query_every: 5
