@@ -13,8 +13,10 @@ KeyframeAgent::KeyframeAgent(const AgentConfig& config, std::unique_ptr<Keyframe
       clock_(clock),
       logger_(std::move(logger)),
       ledger_(config.ledger.baseline_sample_every),
-      sender_(config.link_adaptation, *codec_, config.codec.jpeg_quality,
-              link_prior_bytes_per_s(config.dds.link), logger_) {}
+      sender_(
+          config.link_adaptation, *codec_, config.codec.jpeg_quality,
+          link_prior_bytes_per_s(config.dds.link), [this] { return outbox_.pending_bytes(); },
+          logger_) {}
 
 Keyframe KeyframeAgent::make_keyframe(const Frame& frame, std::vector<std::uint8_t> image) const {
   Keyframe keyframe;
@@ -75,7 +77,7 @@ void KeyframeAgent::publish_selection(const Selection& selection, std::int64_t n
   {
     auto scope = clock_.measure("encode");
     at_level = sender_.encode(
-        selection.frame.image, selection.text_regions, now_ns, outbox_.pending_bytes(),
+        selection.frame.image, selection.text_regions, now_ns,
         [&]() -> const std::vector<std::uint8_t>& { return encoded(selection.frame); });
     keyframe = make_keyframe(selection.frame, std::move(at_level.image));
     keyframe.width = at_level.width;
@@ -153,12 +155,10 @@ void KeyframeAgent::service(std::int64_t now_ns, std::chrono::milliseconds ack_w
         evicted.size(), evicted.front(), evicted.back(), config_.outbox.max_pending,
         config_.outbox.max_age_s);
   }
-  const std::uint64_t backlog = outbox_.pending_bytes();
-  sender_.update(now_ns, backlog);
+  sender_.update(now_ns);
   if (link_.matched_stations() > 0) {
-    const auto due =
-        outbox_.due_for_resend(now_ns, static_cast<std::size_t>(config_.outbox.resend_batch),
-                               sender_.room_for_held(now_ns, backlog));
+    const auto due = outbox_.due_for_resend(
+        now_ns, static_cast<std::size_t>(config_.outbox.resend_batch), sender_.room_for_held());
     std::size_t written = 0;
     for (const auto& keyframe : due) {
       const PublishResult result = link_.publish(keyframe);
@@ -186,7 +186,7 @@ AgentStats KeyframeAgent::stats(bool finished, std::int64_t now_ns) const {
   stats.finished = finished;
   ledger_.fill(stats);
   stats.keyframes_pending = outbox_.pending();
-  sender_.fill(stats, last_now_ns_, outbox_.pending_bytes());
+  sender_.fill(stats, last_now_ns_);
   stats.stages = clock_.snapshot();
   return stats;
 }

@@ -23,12 +23,14 @@ double link_prior_bytes_per_s(const DdsLinkProfile& link) {
 }
 
 LinkAwareSender::LinkAwareSender(const LinkAdaptationConfig& config, const ImageCodec& codec,
-                                 int jpeg_quality, double prior_bytes_per_s, Logger logger)
+                                 int jpeg_quality, double prior_bytes_per_s,
+                                 std::function<std::uint64_t()> backlog_bytes, Logger logger)
     : config_(config),
       codec_(codec),
       logger_(std::move(logger)),
       estimator_(config.estimator_window_s),
-      controller_(config, jpeg_quality) {
+      controller_(config, jpeg_quality),
+      backlog_bytes_(std::move(backlog_bytes)) {
   estimator_.set_prior(prior_bytes_per_s);
 }
 
@@ -39,9 +41,12 @@ void LinkAwareSender::station_matched(bool matched, std::int64_t now_ns) {
     estimator_.pause(now_ns);
 }
 
-void LinkAwareSender::apply(std::int64_t now_ns, std::uint64_t backlog_bytes) {
+void LinkAwareSender::apply(std::int64_t now_ns) {
   last_update_ns_ = now_ns;
-  const auto change = controller_.update(now_ns, estimator_.estimate(now_ns), backlog_bytes);
+  const std::uint64_t backlog = backlog_bytes_();
+  const LinkEstimate link = estimator_.estimate(now_ns);
+  room_for_held_ = SendController::backlog_wait_s(link, backlog) < config_.latency_target_s / 4;
+  const auto change = controller_.update(now_ns, link, backlog);
   if (!change) return;
   ++level_changes_;
   const auto& ladder = controller_.ladder();
@@ -49,13 +54,8 @@ void LinkAwareSender::apply(std::int64_t now_ns, std::uint64_t backlog_bytes) {
                 describe(ladder[change->to]), change->reason);
 }
 
-void LinkAwareSender::update(std::int64_t now_ns, std::uint64_t backlog_bytes) {
-  if (config_.enabled && now_ns - last_update_ns_ >= kUpdatePeriodNs) apply(now_ns, backlog_bytes);
-}
-
-bool LinkAwareSender::room_for_held(std::int64_t now_ns, std::uint64_t backlog_bytes) const {
-  const auto wait = SendController::backlog_wait_s(estimator_.estimate(now_ns), backlog_bytes);
-  return wait < config_.latency_target_s / 4;
+void LinkAwareSender::update(std::int64_t now_ns) {
+  if (config_.enabled && now_ns - last_update_ns_ >= kUpdatePeriodNs) apply(now_ns);
 }
 
 void LinkAwareSender::calibrate(const cv::Mat& frame, const std::vector<TextRegion>& regions) {
@@ -72,12 +72,12 @@ void LinkAwareSender::calibrate(const cv::Mat& frame, const std::vector<TextRegi
 
 LinkAwareSender::Encoded LinkAwareSender::encode(
     const cv::Mat& frame, const std::vector<TextRegion>& regions, std::int64_t now_ns,
-    std::uint64_t backlog_bytes, const std::function<const std::vector<std::uint8_t>&()>& richest) {
+    const std::function<const std::vector<std::uint8_t>&()>& richest) {
   Encoded out;
   if (config_.enabled) {
     if (selections_ % kCalibrateEvery == 0) calibrate(frame, regions);
     controller_.on_selection(now_ns);
-    apply(now_ns, backlog_bytes);
+    apply(now_ns);
   }
   ++selections_;
   const std::size_t index = controller_.level_index();
@@ -104,8 +104,7 @@ LinkAwareSender::Encoded LinkAwareSender::encode(
   return out;
 }
 
-void LinkAwareSender::fill(AgentStats& stats, std::int64_t now_ns,
-                           std::uint64_t backlog_bytes) const {
+void LinkAwareSender::fill(AgentStats& stats, std::int64_t now_ns) const {
   const LinkEstimate e = estimator_.estimate(now_ns);
   const SendLevel& level = controller_.level();
   stats.keyframes_reduced = reduced_;
@@ -116,7 +115,7 @@ void LinkAwareSender::fill(AgentStats& stats, std::int64_t now_ns,
   stats.send_density = static_cast<std::uint32_t>(level.density);
   stats.link_bytes_per_s = e.known ? e.delivery_bytes_per_s : 0.0;
   stats.link_rtt_ms = e.rtt_s * 1e3;
-  const double wait = SendController::backlog_wait_s(e, backlog_bytes);
+  const double wait = SendController::backlog_wait_s(e, backlog_bytes_());
   stats.backlog_s = std::isfinite(wait) ? wait : -1.0;
 }
 

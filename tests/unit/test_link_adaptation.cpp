@@ -297,26 +297,27 @@ TEST(LinkAwareSender, ASlowLinkScalesTheFrameAndItsTextRegions) {
   config.max_density = 1;
   config.text_aware = false;
   JpegCodec codec(85);
-  LinkAwareSender sender(config, codec, 85, 0.0, keyfleet::null_logger());
+  std::uint64_t backlog = 0;  // what the outbox would say waits
+  LinkAwareSender sender(
+      config, codec, 85, 0.0, [&backlog] { return backlog; }, keyfleet::null_logger());
   cv::Mat frame(480, 640, CV_8UC3);
   cv::randu(frame, 0, 255);
   const std::vector<TextRegion> regions = {{100, 50, 201, 41}, {600, 440, 40, 40}};
   const std::vector<std::uint8_t> full = codec.encode(frame);
   const auto richest = [&]() -> const std::vector<std::uint8_t>& { return full; };
 
-  auto first = sender.encode(frame, regions, 0, 0, richest);
+  auto first = sender.encode(frame, regions, 0, richest);
   EXPECT_FALSE(first.reduced);
   EXPECT_EQ(first.width, 640u);
   EXPECT_EQ(first.text_regions, regions);
   // The link then delivers 10 kB/s while a keyframe a second costs far more.
-  std::uint64_t backlog = 0;
   for (int i = 0; i < 12; ++i) {
     sender.on_sent(100 + i, 10'000, i * kSecond);
     sender.on_acked(100 + i, (i + 1) * kSecond);
     backlog = full.size() * 3;
-    if (i > 0) (void)sender.encode(frame, regions, i * kSecond, backlog, richest);
+    if (i > 0) (void)sender.encode(frame, regions, i * kSecond, richest);
   }
-  const auto reduced = sender.encode(frame, regions, 12 * kSecond, backlog, richest);
+  const auto reduced = sender.encode(frame, regions, 12 * kSecond, richest);
   ASSERT_TRUE(reduced.reduced);
   EXPECT_EQ(reduced.width, 320u);
   EXPECT_EQ(reduced.height, 240u);
@@ -325,7 +326,7 @@ TEST(LinkAwareSender, ASlowLinkScalesTheFrameAndItsTextRegions) {
   EXPECT_EQ(reduced.text_regions[0], (TextRegion{50, 25, 101, 21}));   // rounded outwards
   EXPECT_EQ(reduced.text_regions[1], (TextRegion{300, 220, 20, 20}));  // inside the image
   AgentStats stats;
-  sender.fill(stats, 12 * kSecond, backlog);
+  sender.fill(stats, 12 * kSecond);
   EXPECT_EQ(stats.send_scale, 0.5);
   EXPECT_GE(stats.level_changes, 1u);
   EXPECT_GE(stats.keyframes_reduced, 1u);

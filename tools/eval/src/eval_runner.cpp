@@ -298,28 +298,24 @@ DroneRun evaluate_drone(const Context& ctx, const std::string& drone, EvalResult
            read_frames(to_read, d, config.text, config.ocr_threads, cost, results.text_reader))
         read[plan.key(f, 0)] = std::move(signs);
     } else {
-      std::set<UnitKey> units;
+      // Each unit with the text regions it was selected with (the first seen that has any): they
+      // matter to the text-aware encodings and to the station's hints.
+      std::map<UnitKey, std::size_t> units;
       for (std::size_t s = 0; s < run.selected.size(); ++s)
         for (std::size_t k = 0; k < run.selected[s].size(); ++k)
-          for (std::size_t i = 0; i < run.selected[s][k].size(); ++i)
-            units.insert(plan.key(run.selected[s][k][i], run.region_ids[s][k][i]));
+          for (std::size_t i = 0; i < run.selected[s][k].size(); ++i) {
+            const std::size_t id = run.region_ids[s][k][i];
+            std::size_t& regions = units[plan.key(run.selected[s][k][i], id)];
+            if (regions == 0) regions = id;
+          }
       const auto encode_start = SteadyClock::now();
       std::vector<cv::Mat> decoded;
       std::vector<ReadJob> jobs;
-      for (const UnitKey& unit : units) {
+      for (const auto& [unit, regions] : units) {
         const cv::Mat& frame = d.frames[unit.first].image;
-        // The regions matter to the text-aware encodings only (and to the station's hints).
-        std::vector<TextRegion> regions;
-        for (std::size_t s = 0; s < run.selected.size() && regions.empty(); ++s)
-          for (std::size_t k = 0; k < run.selected[s].size() && regions.empty(); ++k)
-            for (std::size_t i = 0; i < run.selected[s][k].size(); ++i)
-              if (plan.key(run.selected[s][k][i], run.region_ids[s][k][i]) == unit &&
-                  run.region_ids[s][k][i] != 0) {
-                regions = run.regions[run.region_ids[s][k][i]];
-                break;
-              }
-        const agent::EncodedFrame encoded = agent::encode_at_level(
-            frame, regions, plan.level, plan.text_aware, config.text_margin_px, ctx.codec);
+        const agent::EncodedFrame encoded =
+            agent::encode_at_level(frame, run.regions[regions], plan.level, plan.text_aware,
+                                   config.text_margin_px, ctx.codec);
         bytes[unit] = encoded.image.size();
         DecodeResult image = ctx.codec.decode(encoded.image);
         if (!image.ok())
@@ -344,7 +340,7 @@ DroneRun evaluate_drone(const Context& ctx, const std::string& drone, EvalResult
       auto found = read_images(jobs, config.text, config.ocr_threads, cost, results.text_reader);
       orb_start = SteadyClock::now();
       std::size_t i = 0;
-      for (const UnitKey& unit : units) {
+      for (const auto& [unit, regions] : units) {
         read[unit] = std::move(found[i]);
         run.encoded_views[e][unit] = describe(decoded[i]);
         ++i;

@@ -27,9 +27,12 @@ double link_prior_bytes_per_s(const DdsLinkProfile& link);
 
 class LinkAwareSender {
  public:
-  // prior_bytes_per_s: what the link is believed to deliver until measured (0: nothing).
+  // prior_bytes_per_s: what the link is believed to deliver until measured (0: nothing);
+  // backlog_bytes: what waits unacknowledged (the outbox's pending_bytes), asked only when a
+  // decision or the stats need it.
   LinkAwareSender(const LinkAdaptationConfig& config, const ImageCodec& codec, int jpeg_quality,
-                  double prior_bytes_per_s, Logger logger);
+                  double prior_bytes_per_s, std::function<std::uint64_t()> backlog_bytes,
+                  Logger logger);
 
   struct Encoded {
     std::vector<std::uint8_t> image;
@@ -41,7 +44,6 @@ class LinkAwareSender {
   // One selection: the level now, and the frame at it. `richest` gives the frame encoded at the
   // richest level (the agent's cached encoding).
   Encoded encode(const cv::Mat& frame, const std::vector<TextRegion>& regions, std::int64_t now_ns,
-                 std::uint64_t backlog_bytes,
                  const std::function<const std::vector<std::uint8_t>&()>& richest);
 
   void on_sent(std::uint64_t sequence, std::uint64_t bytes, std::int64_t now_ns) {
@@ -53,15 +55,17 @@ class LinkAwareSender {
   }
   void forget(std::uint64_t sequence, std::int64_t now_ns) { estimator_.forget(sequence, now_ns); }
   void station_matched(bool matched, std::int64_t now_ns);
-  // Lets the level follow the link between selections (at most every 200 ms).
-  void update(std::int64_t now_ns, std::uint64_t backlog_bytes);
-  // Held keyframes go when the backlog would wait under a quarter of the target.
-  bool room_for_held(std::int64_t now_ns, std::uint64_t backlog_bytes) const;
+  // Lets the level follow the link between selections (with adaptation on, at most every
+  // 200 ms).
+  void update(std::int64_t now_ns);
+  // Held keyframes go when the backlog would wait under a quarter of the target (as of the last
+  // update; never with adaptation off, which holds nothing).
+  bool room_for_held() const { return room_for_held_; }
 
-  void fill(AgentStats& stats, std::int64_t now_ns, std::uint64_t backlog_bytes) const;
+  void fill(AgentStats& stats, std::int64_t now_ns) const;
 
  private:
-  void apply(std::int64_t now_ns, std::uint64_t backlog_bytes);
+  void apply(std::int64_t now_ns);
   // Every distinct encoding of the ladder, measured on this frame, teaches the controller.
   void calibrate(const cv::Mat& frame, const std::vector<TextRegion>& regions);
 
@@ -70,6 +74,8 @@ class LinkAwareSender {
   Logger logger_;
   LinkEstimator estimator_;
   SendController controller_;
+  std::function<std::uint64_t()> backlog_bytes_;
+  bool room_for_held_ = false;
   std::int64_t last_update_ns_ = 0;
   std::uint64_t selections_ = 0;
   std::uint64_t reduced_ = 0;
