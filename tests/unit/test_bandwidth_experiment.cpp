@@ -1,6 +1,8 @@
 // The bandwidth experiment's arithmetic on hand-made cases with known answers.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -262,6 +264,102 @@ TEST(DrainSizing, CoversWhatTheFlightOffersOverTheLinkLessItsLoss) {
   size_drain(unlimited, link, config);
   EXPECT_DOUBLE_EQ(unlimited.agent.drain_timeout_s, 60);
   EXPECT_DOUBLE_EQ(unlimited.agent_timeout_s, 150);
+}
+
+TEST(DrainSizing, AReplayedScenarioGivesTheFlightItsOwnLength) {
+  BandwidthExperimentConfig config;
+  config.offered_bytes_per_s = 60000;
+  config.drain_margin_s = 30;
+  MissionConfig mission;  // a scenario replay: the source has no max_frames
+  mission.agent.drain_timeout_s = 60;
+  LinkProfileConfig link;
+  link.rate_kbit_s = 100;
+  MissionConfig without = mission;
+  size_drain(without, link, config);  // nothing says how long the flight is: unchanged
+  EXPECT_DOUBLE_EQ(without.agent.drain_timeout_s, 60);
+  size_drain(mission, link, config, 20.0);  // 20 s of scenario: 1.2 MB offered
+  EXPECT_NEAR(mission.agent.drain_timeout_s, 1.2e6 / 8750 - 20 + 30, 1e-9);
+}
+
+ExperimentMission analysed(const std::string& name, double rate_kbit_s, bool adapting,
+                           std::size_t words_read, std::uint64_t payload_bytes) {
+  ExperimentMission m;
+  m.name = name;
+  m.link = "netns";
+  m.drones = 2;
+  m.link_adaptation = adapting;
+  m.profile.rate_kbit_s = rate_kbit_s;
+  for (int i = 0; i < 2; ++i) {
+    RobotOutcome r;
+    r.metrics.payload_bytes = payload_bytes / 2;
+    m.robots.push_back(r);
+  }
+  MissionAnalysis a;
+  a.keyframes = 40;
+  a.analysed = 40;
+  a.visible_words = 12;
+  a.words_read = words_read;
+  a.place_matches = 7;
+  a.place_matches_right = 6;
+  m.analysis = a;
+  return m;
+}
+
+TEST(AnalysisTable, WordsReadAgainstTheSameFlightOverTheUnlimitedLink) {
+  ExperimentResult result;
+  result.flight_s = 20;
+  result.missions.push_back(analysed("unlimited-adapting", 0, true, 9, 4'000'000));
+  result.missions.push_back(analysed("unlimited", 0, false, 10, 4'000'000));
+  result.missions.push_back(analysed("slow", 250, false, 4, 1'000'000));
+  result.missions.push_back(analysed("slow-adapting", 250, true, 8, 800'000));
+  ExperimentMission failed = analysed("no-database", 250, false, 0, 0);
+  failed.analysis.reset();
+  failed.analysis_error = "not scored against the scenario: cannot open station.sqlite";
+  result.missions.push_back(failed);
+  const std::string table = analysis_table(result);
+  const auto row = [&](const std::string& name) {
+    const auto at = table.find("\n" + name + " ");
+    return at == std::string::npos ? std::string()
+                                   : table.substr(at + 1, table.find('\n', at + 1) - at - 1);
+  };
+  // The reference is the unlimited flight without adaptation: 10 words.
+  EXPECT_NE(row("slow").find("4 of 12"), std::string::npos) << table;
+  EXPECT_NE(row("slow").find("40 %"), std::string::npos) << table;
+  EXPECT_NE(row("slow-adapting").find("80 %"), std::string::npos) << table;
+  EXPECT_NE(row("unlimited-adapting").find("90 %"), std::string::npos) << table;
+  // 800 kB over 2 drones and 20 s of flight: 20 kB/s per drone.
+  EXPECT_NE(row("slow-adapting").find("20.0"), std::string::npos) << table;
+  EXPECT_NE(row("slow").find("7 (6 right)"), std::string::npos) << table;
+  EXPECT_NE(table.find("no-database: not scored against the scenario: cannot open"),
+            std::string::npos)
+      << table;
+  EXPECT_NE(experiment_table(result).find("against the scenario's truth"), std::string::npos);
+}
+
+TEST(AnalysisTable, NothingWithoutAScenario) {
+  ExperimentResult result;
+  result.missions.push_back(analysed("plain", 250, false, 0, 1000));
+  result.missions.back().analysis.reset();
+  EXPECT_EQ(analysis_table(result), "");
+}
+
+TEST(ExperimentConfig, AScenarioIsRelativeToTheFileAndMustExist) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("keyfleet_experiment_scenario_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "street.yaml") << "name: street\n";
+  std::ofstream(dir / "good.yaml") << "mission:\n  scenario: street.yaml\n";
+  std::ofstream(dir / "bad.yaml") << "mission:\n  scenario: missing.yaml\n";
+  const auto config = load_bandwidth_experiment_config((dir / "good.yaml").string());
+  EXPECT_EQ(std::filesystem::path(config.mission.scenario), dir / "street.yaml");
+  try {
+    load_bandwidth_experiment_config((dir / "bad.yaml").string());
+    ADD_FAILURE() << "no error";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("mission.scenario: '"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("missing.yaml' does not exist"), std::string::npos);
+  }
+  std::filesystem::remove_all(dir);
 }
 
 TEST(LogTime, FindsTheFirstLineWithANeedleOrTheFirstLine) {

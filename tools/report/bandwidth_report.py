@@ -171,6 +171,75 @@ def plot_radio(results, out):
     return True
 
 
+def kb_per_s_per_drone(results, mission):
+    """Stored payload per drone per second of flight (kB/s), or None without a flight length."""
+    flight = results.get("flight_s") or 0
+    if not flight or not mission["drones"]:
+        return None
+    return fleet(mission)["payload"] / 1e3 / mission["drones"] / flight
+
+
+def plot_words(results, out):
+    """Words read at the station against kB/s per drone: a point per mission, a line per
+    fleet size, security and adaptation (the missions that replayed a scenario)."""
+    missions = [m for m in results["missions"]
+                if m.get("analysis") and "words_read" in m["analysis"]
+                and kb_per_s_per_drone(results, m) is not None]
+    if not missions:
+        return False
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for key in sorted({group_of(m) for m in missions}):
+        drones, secure, adapting = key
+        rows = sorted((kb_per_s_per_drone(results, m), m) for m in missions
+                      if group_of(m) == key)
+        x = [rate for rate, _ in rows]
+        y = [m["analysis"]["words_read"] for _, m in rows]
+        style = ":" if adapting else ("-" if secure else "--")
+        ax.plot(x, y, style, marker="o",
+                label=f'{drones} drones{"" if secure else ", no security"}'
+                + (", adapting" if adapting else ", fixed q85"))
+        for rate, m in rows:
+            ax.annotate(m["profile"]["name"], (rate, m["analysis"]["words_read"]),
+                        fontsize=6, xytext=(3, 3), textcoords="offset points")
+    ax.set_xlabel("stored keyframe payload per drone (kB per second of flight)")
+    ax.set_ylabel("distinct sign words read at the station")
+    ax.set_ylim(bottom=0)
+    ax.set_xlim(left=0)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    ax.set_title("Words read per byte")
+    fig.tight_layout()
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+    return True
+
+
+def analysis_lines(results):
+    missions = [m for m in results["missions"] if m.get("analysis")]
+    if not missions:
+        return []
+    lines = ["## The station's analysis against the scenario's truth", "",
+             "| mission | keyframes | analysed | sign words read | vs unlimited | junk | "
+             "place matches (right) | kB/s per drone |", "|" + "---|" * 8]
+    for m in missions:
+        a = m["analysis"]
+        if "error" in a:
+            lines.append(f'| {m["name"]} | {a["error"]} |' + " |" * 6)
+            continue
+        versus = m.get("words_read_vs_unlimited")
+        lines.append(
+            f'| {m["name"]} | {a["keyframes"]} | {a["analysed"]} | '
+            f'{a["words_read"]} of {a["visible_words"]} | '
+            f'{fmt(None if versus is None else 100 * versus, ".0f")} % | {a["junk"]} | '
+            f'{a["place_matches"]} ({a["place_matches_right"]}) | '
+            f'{fmt(kb_per_s_per_drone(results, m), ".1f")} |')
+    lines += ["", "Sign words read: distinct words of the street's signs fully visible in a stored "
+              "keyframe and read there; vs unlimited: against the same flight over the unlimited "
+              "profile (same link kind, security and fleet). Place matches: stored matches "
+              "between two robots' keyframes, right when both look within 5 m on the street.", ""]
+    return lines
+
+
 def fmt(value, spec, missing="-"):
     return missing if value is None else format(value, spec)
 
@@ -199,6 +268,7 @@ def write_report(results, folder, pictures):
               "(one machine clock). Payload: serialized DDS samples stored (first copies). Wire: "
               "bytes the drone's veth sent (IP + UDP + RTPS, resends and discovery included), "
               "only on netns links. Stream-all is estimated from one frame in N (est.).", ""]
+    lines += analysis_lines(results)
     for title, picture in pictures:
         lines += [f"## {title}", "", f"![{title}]({picture})", ""]
     lines += ["## What each link applied", ""]
@@ -226,6 +296,8 @@ def main():
                      ("Latency per profile", "latency.png")]
         if plot_radio(results, folder / "radio.png"):
             pictures.append(("Radio links: goodput and latency", "radio.png"))
+        if plot_words(results, folder / "words.png"):
+            pictures.append(("Words read per byte", "words.png"))
     write_report(results, folder, pictures)
 
 

@@ -13,11 +13,16 @@
 #include <sstream>
 
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/common/scenario_truth.hpp"
 #include "keyfleet/common/topic_names.hpp"
+#include "keyfleet/eval/run_place_score.hpp"
+#include "keyfleet/eval/run_text_score.hpp"
 #include "keyfleet/mission/experiment_config.hpp"
 #include "keyfleet/mission/link_shaping.hpp"
 #include "keyfleet/mission/mission_config.hpp"
 #include "keyfleet/mission/wire_capture.hpp"
+#include "keyfleet/scenario/scenario_config.hpp"
+#include "keyfleet/scenario/scenario_generator.hpp"
 
 namespace keyfleet::mission {
 namespace {
@@ -99,11 +104,61 @@ BandwidthExperiment::BandwidthExperiment(BandwidthExperimentConfig config, Missi
     : config_(std::move(config)),
       binaries_(std::move(binaries)),
       logger_(std::move(logger)),
-      progress_(progress) {
-  if (!config_.mission.scenario.empty() || !config_.mission.scenario_dir.empty())
-    throw StartupError(
-        "experiment: mission.scenario/scenario_dir decide the number of drones; the bandwidth "
-        "experiment sets it per mission, so use a generated, folder or video source");
+      progress_(progress) {}
+
+// A scenario is generated once, into the experiment's folder, and every mission replays its
+// first `drones` drones: the same flight over every link.
+void BandwidthExperiment::prepare_scenario(const std::string& dir) {
+  scenario_dir_ = config_.mission.scenario_dir;
+  if (!config_.mission.scenario.empty()) {
+    scenario_dir_ = (fs::path(dir) / "scenario").string();
+    progress_ << "generating scenario " << config_.mission.scenario << " ...\n" << std::flush;
+    scenario::generate_scenario(load_scenario_config(config_.mission.scenario), scenario_dir_,
+                                logger_);
+  }
+  if (scenario_dir_.empty()) return;
+  const scenario::Scenario street = scenario::read_scenario(scenario_dir_);
+  std::uint64_t frames = 0;
+  double fps = config_.mission.agent.source.fps;
+  for (const auto& drone : street.drones) {
+    scenario_drones_.push_back(drone.robot_id);
+    frames = std::max(frames, drone.frames);
+    if (drone.fps > 0) fps = drone.fps;
+  }
+  if (config_.mission.agent.source.max_frames > 0)
+    frames = std::min(frames, config_.mission.agent.source.max_frames);
+  scenario_flight_s_ = fps > 0 ? static_cast<double>(frames) / fps : 0;
+  for (int drones : config_.drones)
+    if (drones > static_cast<int>(scenario_drones_.size()))
+      throw StartupError("experiment: drones: " + std::to_string(drones) +
+                         " asked for, but the "
+                         "scenario " +
+                         scenario_dir_ + " has " + std::to_string(scenario_drones_.size()) +
+                         " drones");
+  progress_ << "scenario: " << scenario_drones_.size() << " drones, " << scenario_flight_s_
+            << " s of flight each, replayed by every mission\n";
+}
+
+// The station's reading and place matches against the street's truth.
+void BandwidthExperiment::add_analysis(ExperimentMission& out) const {
+  const std::string db = (fs::path(out.run_dir) / "station" / "station.sqlite").string();
+  try {
+    const auto text = eval::score_run_text(scenario_dir_, db);
+    const auto places = eval::score_run_places(scenario_dir_, db);
+    MissionAnalysis a;
+    a.keyframes = places.keyframes;
+    a.analysed = places.analysed;
+    a.visible_words = text.visible_words;
+    a.words_read = text.read_visible;
+    a.words_reported = text.words_reported;
+    a.junk = text.junk;
+    a.place_matches = places.matches;
+    a.place_matches_right = places.right;
+    a.read_words = text.read_words;
+    out.analysis = std::move(a);
+  } catch (const std::exception& e) {
+    out.analysis_error = std::string("not scored against the scenario: ") + e.what();
+  }
 }
 
 ExperimentResult BandwidthExperiment::run(const StopToken& stop) {
@@ -114,6 +169,12 @@ ExperimentResult BandwidthExperiment::run(const StopToken& stop) {
   result.dir = dir.string();
   std::ofstream(dir / "config" / "experiment.yaml") << to_yaml(config_);
   progress_ << "bandwidth experiment '" << config_.name << "': " << dir.string() << "\n";
+  prepare_scenario(dir.string());
+  result.scenario_dir = scenario_dir_;
+  const auto& source = config_.mission.agent.source;
+  result.flight_s = scenario_flight_s_ > 0  ? scenario_flight_s_
+                    : source.max_frames > 0 ? static_cast<double>(source.max_frames) / source.fps
+                                            : 0;
 
   std::vector<std::string> links;
   for (const auto& link : config_.links) {
@@ -179,10 +240,18 @@ ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const
   mission.drones = drones;
   mission.security = security;
   mission.agent.link_adaptation.enabled = adaptation;
-  size_drain(mission, profile, config_);
+  size_drain(mission, profile, config_, scenario_flight_s_);
   mission.run_root = (fs::path(dir) / "missions").string();
   std::vector<std::string> robot_ids;
-  for (int i = 0; i < drones; ++i) robot_ids.push_back(mission.robot_id_prefix + std::to_string(i));
+  if (!scenario_dir_.empty()) {
+    mission.scenario.clear();
+    mission.scenario_dir = scenario_dir_;
+    mission.scenario_drones = drones;
+    robot_ids.assign(scenario_drones_.begin(), scenario_drones_.begin() + drones);
+  } else {
+    for (int i = 0; i < drones; ++i)
+      robot_ids.push_back(mission.robot_id_prefix + std::to_string(i));
+  }
 
   std::unique_ptr<NetnsLinks> netns;
   MissionHooks hooks;
@@ -305,6 +374,18 @@ ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const
   } catch (const StartupError& e) {
     out.failures.push_back(e.what());
   }
+  if (!scenario_dir_.empty()) {
+    add_analysis(out);
+    if (out.analysis)
+      progress_ << "station read " << out.analysis->words_read << " of "
+                << out.analysis->visible_words << " sign words visible in "
+                << out.analysis->keyframes << " keyframes (" << out.analysis->analysed
+                << " analysed); " << out.analysis->place_matches
+                << " place matches between robots, " << out.analysis->place_matches_right
+                << " right\n";
+    else
+      progress_ << out.analysis_error << "\n";
+  }
   out.ok = out.failures.empty();
   progress_ << out.name << (out.ok ? ": OK" : ": FAILED") << " in " << static_cast<int>(out.wall_s)
             << " s\n"
@@ -313,10 +394,11 @@ ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const
 }
 
 void size_drain(MissionConfig& mission, const LinkProfileConfig& profile,
-                const BandwidthExperimentConfig& config) {
+                const BandwidthExperimentConfig& config, double flight_s) {
   const auto& source = mission.agent.source;
-  if (profile.rate_kbit_s <= 0 || source.max_frames == 0) return;
-  const double flight_s = static_cast<double>(source.max_frames) / source.fps;
+  if (flight_s <= 0 && source.max_frames > 0)
+    flight_s = static_cast<double>(source.max_frames) / source.fps;
+  if (profile.rate_kbit_s <= 0 || flight_s <= 0) return;
   const double offered = config.offered_bytes_per_s * flight_s;
   // What the flight offers beyond what the link carries during it, plus the margin. The link
   // carries about 0.7 of its rate in keyframe payload (pacing and headers), less what is lost.

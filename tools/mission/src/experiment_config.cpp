@@ -1,5 +1,7 @@
 #include "keyfleet/mission/experiment_config.hpp"
 
+#include <filesystem>
+
 #include "keyfleet/common/config_yaml.hpp"
 
 namespace keyfleet {
@@ -62,7 +64,20 @@ BandwidthExperimentConfig parse_bandwidth_experiment_config(const std::string& t
 }
 
 BandwidthExperimentConfig load_bandwidth_experiment_config(const std::string& path) {
-  return parse_bandwidth_experiment_config(read_config_file(path), path);
+  BandwidthExperimentConfig config =
+      parse_bandwidth_experiment_config(read_config_file(path), path);
+  // A replayed scenario is relative to the experiment file, as in a mission file.
+  resolve_relative_to(path, config.mission.scenario);
+  resolve_relative_to(path, config.mission.scenario_dir);
+  if (!config.mission.scenario.empty() &&
+      !std::filesystem::is_regular_file(config.mission.scenario))
+    throw ConfigError(path + ": mission.scenario: '" + config.mission.scenario +
+                      "' does not exist");
+  if (!config.mission.scenario_dir.empty() &&
+      !std::filesystem::is_directory(config.mission.scenario_dir))
+    throw ConfigError(path + ": mission.scenario_dir: '" + config.mission.scenario_dir +
+                      "' is not a folder");
+  return config;
 }
 
 std::string to_yaml(const BandwidthExperimentConfig& config) { return emit_config(config); }

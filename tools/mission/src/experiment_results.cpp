@@ -70,6 +70,29 @@ json robot_json(const RobotOutcome& r) {
   return j;
 }
 
+json analysis_json(const ExperimentMission& m) {
+  if (!m.analysis)
+    return m.analysis_error.empty() ? json(nullptr) : json{{"error", m.analysis_error}};
+  const MissionAnalysis& a = *m.analysis;
+  return {{"keyframes", a.keyframes},           {"analysed", a.analysed},
+          {"visible_words", a.visible_words},   {"words_read", a.words_read},
+          {"words_reported", a.words_reported}, {"junk", a.junk},
+          {"place_matches", a.place_matches},   {"place_matches_right", a.place_matches_right},
+          {"read_words", a.read_words}};
+}
+
+// The same flight over an unlimited link (rate 0), same link kind, security and fleet size,
+// preferably without adaptation: what the words read are compared with.
+const ExperimentMission* unlimited_reference(const ExperimentResult& result,
+                                             const ExperimentMission& m) {
+  const ExperimentMission* found = nullptr;
+  for (const auto& r : result.missions)
+    if (r.analysis && r.profile.rate_kbit_s <= 0 && r.link == m.link && r.security == m.security &&
+        r.drones == m.drones && (!found || !r.link_adaptation))
+      found = &r;
+  return found;
+}
+
 std::string megabytes(std::uint64_t bytes) {
   char text[32];
   std::snprintf(text, sizeof text, "%.2f", static_cast<double>(bytes) / 1e6);
@@ -84,6 +107,8 @@ void write_experiment_json(const ExperimentResult& result, const BandwidthExperi
   root["experiment"] = config.name;
   root["machine"] = machine();
   root["bin_s"] = config.bin_s;
+  root["scenario_dir"] = result.scenario_dir;
+  root["flight_s"] = result.flight_s;
   root["skipped"] = result.skipped;
   root["interrupted"] = result.interrupted;
   root["missions"] = json::array();
@@ -107,6 +132,12 @@ void write_experiment_json(const ExperimentResult& result, const BandwidthExperi
     j["notes"] = m.notes;
     j["robots"] = json::array();
     for (const auto& r : m.robots) j["robots"].push_back(robot_json(r));
+    j["analysis"] = analysis_json(m);
+    const ExperimentMission* reference = m.analysis ? unlimited_reference(result, m) : nullptr;
+    j["words_read_vs_unlimited"] = reference && reference->analysis->words_read > 0
+                                       ? json(static_cast<double>(m.analysis->words_read) /
+                                              static_cast<double>(reference->analysis->words_read))
+                                       : json(nullptr);
     root["missions"].push_back(j);
   }
   std::ofstream out(path);
@@ -201,6 +232,44 @@ std::string experiment_table(const ExperimentResult& result) {
         cell(firsts, "%.1fs").c_str(), cell(idles, "%.0f").c_str(),
         delivered > 0 ? static_cast<double>(payload) / static_cast<double>(delivered) / 1e3 : 0.0,
         static_cast<unsigned long long>(reduced));
+    table += line;
+  }
+  return table + analysis_table(result);
+}
+
+std::string analysis_table(const ExperimentResult& result) {
+  const bool any = std::any_of(result.missions.begin(), result.missions.end(),
+                               [](const ExperimentMission& m) { return m.analysis.has_value(); });
+  if (!any) return {};
+  std::string table = "\nthe station's analysis against the scenario's truth:\n";
+  char line[256];
+  std::snprintf(line, sizeof line, "%-32s %9s %8s %12s %13s %6s %14s %11s\n", "mission",
+                "keyframes", "analysed", "words read", "vs unlimited", "junk", "place matches",
+                "kB/s/drone");
+  table += line;
+  for (const auto& m : result.missions) {
+    if (!m.analysis) {
+      if (!m.analysis_error.empty()) table += m.name + ": " + m.analysis_error + "\n";
+      continue;
+    }
+    const MissionAnalysis& a = *m.analysis;
+    const ExperimentMission* reference = unlimited_reference(result, m);
+    char versus[32] = "-";
+    if (reference && reference->analysis->words_read > 0)
+      std::snprintf(versus, sizeof versus, "%.0f %%",
+                    100.0 * static_cast<double>(a.words_read) /
+                        static_cast<double>(reference->analysis->words_read));
+    std::uint64_t payload = 0;
+    for (const auto& r : m.robots) payload += r.metrics.payload_bytes;
+    char rate[32] = "-";
+    if (result.flight_s > 0 && m.drones > 0)
+      std::snprintf(rate, sizeof rate, "%.1f",
+                    static_cast<double>(payload) / 1e3 / m.drones / result.flight_s);
+    char words[32], places[32];
+    std::snprintf(words, sizeof words, "%zu of %zu", a.words_read, a.visible_words);
+    std::snprintf(places, sizeof places, "%zu (%zu right)", a.place_matches, a.place_matches_right);
+    std::snprintf(line, sizeof line, "%-32s %9zu %8zu %12s %13s %6zu %14s %11s\n", m.name.c_str(),
+                  a.keyframes, a.analysed, words, versus, a.junk, places, rate);
     table += line;
   }
   return table;

@@ -52,7 +52,11 @@ struct BandwidthExperimentConfig {
   bool capture = true;
   double bin_s = 1.0;                       // bandwidth-over-time bins (s)
   std::string python = "/usr/bin/python3";  // runs tools/report/bandwidth_report.py (matplotlib)
-  MissionConfig mission;  // agent and station templates; name and drones are set per mission
+  // Agent and station templates; name and drones are set per mission. With mission.scenario (or
+  // scenario_dir) the scenario is generated once and every mission replays its first `drones`
+  // drones (each count at most the scenario's); the station's words read and place matches are
+  // then judged against the street's truth and reported beside the link figures.
+  MissionConfig mission;
 };
 
 BandwidthExperimentConfig load_bandwidth_experiment_config(const std::string& path);
