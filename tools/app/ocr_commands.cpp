@@ -19,10 +19,12 @@
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/file_output.hpp"
 #include "keyfleet/eval/eval_runner.hpp"
+#include "keyfleet/eval/photo_encoding.hpp"
 #include "keyfleet/eval/run_text_score.hpp"
 #include "keyfleet/eval/text_dataset_eval.hpp"
 #include "keyfleet/station/station_config.hpp"
 #include "keyfleet/station/text/text_reader.hpp"
+#include "keyfleet/vision/text_segmenter.hpp"
 
 namespace keyfleet::commands {
 namespace {
@@ -64,6 +66,8 @@ struct OcrOptions {
   std::vector<std::string> lexicons = {"none", "/usr/share/dict/american-english"};
   std::string out;
   std::string image;
+  std::vector<std::string> encodings;  // NAME=QUALITY[@SCALE][+text] (photo_encoding.hpp)
+  int text_margin_px = 4;
 };
 
 std::string percent(double value) {
@@ -98,7 +102,55 @@ std::string eval_row(station::TextReader& reader, const std::string& engine,
   return row + " | " + ms_cell(photo_ms) + " | " + ms_cell(word_ms) + " |\n";
 }
 
+// One row per encoding: the photo sets read as the robot would send them, with the bytes a photo
+// took (the word sets are crops, not what a robot sends: left out).
+std::string encoding_rows(station::TextReader& reader, const std::string& engine,
+                          const std::string& lexicon, const OcrOptions& o,
+                          const std::vector<EvalEncoding>& encodings,
+                          const std::shared_ptr<vision::TextSegmenter>& segmenter) {
+  std::string rows;
+  for (const auto& encoding : encodings) {
+    const auto link = eval::make_photo_link(encoding, o.text_margin_px, segmenter);
+    std::string row = "| " + engine + " | " + lexicon + " | " + encoding.name;
+    std::string kilobytes = "-";
+    for (const auto& name : o.sets) {
+      const DataSet& set = find_set(name);
+      if (!set.photos) continue;
+      const auto r = eval::evaluate_end_to_end(reader, (fs::path(o.data) / set.folder).string(),
+                                               o.max_images, {}, link);
+      row += " | " + percent(r.counts.recall()) + " / " + percent(r.counts.precision()) + " / **" +
+             percent(r.counts.f_score()) + "** (" + std::to_string(r.images) + ")";
+      if (kilobytes == "-" && r.images > 0) {
+        char text[32];
+        std::snprintf(text, sizeof text, "%.1f", double(r.bytes) / 1e3 / double(r.images));
+        kilobytes = text;
+      }
+    }
+    rows += row + " | " + kilobytes + " |\n";
+    std::printf("%s", (row + " | " + kilobytes + " |\n").c_str());
+    std::fflush(stdout);
+  }
+  return rows;
+}
+
+std::string encodings_header(const OcrOptions& o) {
+  std::string table = "| engine | lexicon | encoding";
+  std::string rule = "|---|---|---";
+  for (const auto& name : o.sets)
+    if (find_set(name).photos) {
+      table += " | " + name + " R / P / F % (photos)";
+      rule += "|---";
+    }
+  return table + " | kB a photo (first set) |\n" + rule + "|---|\n";
+}
+
 void run_eval(const OcrOptions& o) {
+  std::vector<EvalEncoding> encodings;
+  for (const auto& spec : o.encodings) encodings.push_back(eval::parse_encoding_spec(spec));
+  std::shared_ptr<vision::TextSegmenter> segmenter;
+  if (std::any_of(encodings.begin(), encodings.end(),
+                  [](const EvalEncoding& e) { return e.text_aware; }))
+    segmenter = vision::make_text_segmenter(SemanticConfig{});  // the robot's, as shipped
   for (const auto& name : o.sets) {
     const DataSet& set = find_set(name);
     if (!fs::is_directory(fs::path(o.data) / set.folder))
@@ -113,6 +165,7 @@ void run_eval(const OcrOptions& o) {
     rule += "|---";
   }
   table += " | ms a photo | ms a word |\n" + rule + "|---|---|\n";
+  if (!encodings.empty()) table = encodings_header(o);
   std::printf("%s", table.c_str());
   std::fflush(stdout);
   const std::vector<std::string> engines =
@@ -133,6 +186,11 @@ void run_eval(const OcrOptions& o) {
             "| " + engine + " | " + lexicon + " | not available: " + e.what() + " |\n";
         std::printf("%s", row.c_str());
         table += row;
+        continue;
+      }
+      if (!encodings.empty()) {
+        table += encoding_rows(*reader, engine, fs::path(lexicon).filename().string(), o, encodings,
+                               segmenter);
         continue;
       }
       const std::string row = eval_row(*reader, engine, fs::path(lexicon).filename().string(), o);
@@ -244,6 +302,13 @@ void add_ocr_commands(CLI::App& app) {
                    "a row per engine and word list ('none' = without)")
       ->delimiter(',');
   eval->add_option("--out", options->out, "also write the table (Markdown) to this file");
+  eval->add_option("--encoding", options->encodings,
+                   "read the photos as a robot would send them, one row each: "
+                   "NAME=QUALITY[@SCALE][+text] (e.g. q55=55 ta40=40@0.5+text; text-aware "
+                   "regions from the robot's semantic model); the table gives kB a photo");
+  eval->add_option("--text-margin", options->text_margin_px,
+                   "text-aware encodings: pixels kept around each text region")
+      ->check(CLI::Range(0, 1000));
   add_reader_options(*eval, *options);
   eval->callback([options] { run_reporting([&] { run_eval(*options); }); });
 

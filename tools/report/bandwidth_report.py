@@ -190,8 +190,8 @@ def plot_words(results, out):
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for key in sorted({group_of(m) for m in missions}):
         drones, secure, adapting = key
-        rows = sorted((kb_per_s_per_drone(results, m), m) for m in missions
-                      if group_of(m) == key)
+        rows = sorted(((kb_per_s_per_drone(results, m), m) for m in missions
+                       if group_of(m) == key), key=lambda row: row[0])
         x = [rate for rate, _ in rows]
         y = [m["analysis"]["words_read"] for _, m in rows]
         style = ":" if adapting else ("-" if secure else "--")

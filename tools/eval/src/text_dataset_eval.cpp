@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 
 #include "keyfleet/common/error.hpp"
@@ -49,10 +50,22 @@ std::vector<fs::path> icdar_images(const fs::path& folder) {
   return files;
 }
 
+// Words read in a received image, in the photo's pixels.
+void to_photo_pixels(std::vector<station::ReadWord>& words, double sx, double sy) {
+  if (sx == 1 && sy == 1) return;
+  for (auto& w : words) {
+    const int x0 = int(std::floor(w.box.x * sx)), y0 = int(std::floor(w.box.y * sy));
+    const int x1 = int(std::ceil(w.box.br().x * sx)), y1 = int(std::ceil(w.box.br().y * sy));
+    w.box = cv::Rect(x0, y0, x1 - x0, y1 - y0);
+    for (auto& corner : w.quad) corner = {float(corner.x * sx), float(corner.y * sy)};
+  }
+}
+
 }  // namespace
 
 EndToEndResult evaluate_end_to_end(station::TextReader& reader, const std::string& set_dir,
-                                   std::size_t max_images, const EndToEndParams& params) {
+                                   std::size_t max_images, const EndToEndParams& params,
+                                   const PhotoLink& link) {
   EndToEndResult result;
   std::vector<double> ms;
   for (const auto& path : icdar_images(fs::path(set_dir) / "images")) {
@@ -61,7 +74,15 @@ EndToEndResult evaluate_end_to_end(station::TextReader& reader, const std::strin
     if (image.empty()) throw StartupError("unreadable image " + path.string());
     const auto truth = read_icdar_gt(
         (fs::path(set_dir) / "gt" / ("gt_" + path.stem().string() + ".txt")).string());
-    result.counts += match_end_to_end(truth, timed_read(reader, image, ms), params);
+    if (link) {
+      ReceivedPhoto received = link(image);
+      result.bytes += received.bytes;
+      auto words = timed_read(reader, received.image, ms);
+      to_photo_pixels(words, received.sx, received.sy);
+      result.counts += match_end_to_end(truth, words, params);
+    } else {
+      result.counts += match_end_to_end(truth, timed_read(reader, image, ms), params);
+    }
     ++result.images;
   }
   result.median_ms = median(ms);
