@@ -12,6 +12,11 @@
 #   scripts/results.sh seeds           # Fig. 6 over 3 forward- and 3 side-looking streets
 #                                      # (`keyfleet eval --seeds`, about 30 minutes here):
 #                                      # <date>-fig6-over-seeds.md
+#   scripts/results.sh words           # words read per byte over weak links, adaptation off and on
+#                                      # (configs/experiment_bandwidth_words.yaml, about 15 minutes
+#                                      # as root): <date>-words-per-byte.md
+#   scripts/results.sh ocr-encodings   # `keyfleet ocr eval --encoding` on test_clean, F against kB
+#                                      # a photo (about 30 minutes): <date>-ocr-encodings.md
 #   scripts/results.sh places          # place retrieval bow / cnn / fusion on the same streets
 #                                      # and vpr_corridor (`keyfleet places eval`):
 #                                      # <date>-place-recognition.md
@@ -250,6 +255,53 @@ radio_block() {
   echo "from $out"
 }
 
+# Words read per byte: the street replayed over weak links with adaptation off and on (as root).
+words_block() {
+  local runs="$root/runs"
+  mkdir -p "$runs" "$pages"
+  local start=$SECONDS
+  "$build/bin/keyfleet" experiment bandwidth "$root/configs/experiment_bandwidth_words.yaml" \
+    --run-root "$runs"
+  local took=$((SECONDS - start))
+  local out
+  out=$(ls -dt "$runs"/words_per_byte-* | head -1)
+  [ -f "$out/words.png" ] && cp "$out/words.png" "$pages/$day-words-per-byte.png"
+  {
+    echo "*Measured $when on $machine (shared: figures of time are noisy) with"
+    echo "\`scripts/results.sh words\` ($took s): \`keyfleet experiment bandwidth"
+    echo "configs/experiment_bandwidth_words.yaml\`.*"
+    echo
+    sed -n '/^| mission | ok/,/^$/p' "$out/report.md"
+    sed -n '/^## The station/,/^Sign words read/p' "$out/report.md"
+    if [ -f "$pages/$day-words-per-byte.png" ]; then
+      echo
+      echo "![words read per byte]($day-words-per-byte.png)"
+    fi
+  } | write_page words-per-byte "Words read per byte over weak links"
+  echo "from $out"
+}
+
+# The ICDAR 2015 test photos read as a robot would send them: F against kB a photo.
+ocr_encodings_block() {
+  local data=${KEYFLEET_DATA:-$root/../shared/data}
+  local start=$SECONDS
+  mkdir -p "$root/runs"
+  "$build/bin/keyfleet" ocr eval --data "$data" --engine ppocr --sets test_clean --lexicons none \
+    --max-images 100 --encoding q85=85 --encoding q55=55 --encoding q40=40 \
+    --encoding q40h=40@0.5 --encoding ta55h=55@0.5+text --encoding ta40h=40@0.5+text \
+    --out "$root/runs/results-ocr-encodings.md"
+  local took=$((SECONDS - start))
+  {
+    echo "*Measured $when on $machine with \`scripts/results.sh ocr-encodings\` ($took s):"
+    echo "the first 100 photos of ICDAR 2015's test set, each encoded as the robot's send ladder"
+    echo "would (q: JPEG quality, h: half size, ta: text-aware at half size, its regions from the"
+    echo "robot's semantic model), read by the station's PP-OCRv4 reader, the words mapped back"
+    echo "to the photo and matched by the ICDAR end-to-end protocol.*"
+    echo
+    cat "$root/runs/results-ocr-encodings.md"
+  } | write_page ocr-encodings "Reading real photos as the robot sends them"
+}
+
 blocks=("$@")
 [ ${#blocks[@]} -eq 0 ] && blocks=(eval bandwidth)
 for block in "${blocks[@]}"; do
@@ -260,7 +312,9 @@ for block in "${blocks[@]}"; do
     seeds) seeds_block ;;
     places) places_block ;;
     radio) radio_block ;;
-    *) echo "results.sh: unknown block '$block' (eval, bandwidth, radio, ocr, seeds, places)" >&2
+    words) words_block ;;
+    ocr-encodings) ocr_encodings_block ;;
+    *) echo "results.sh: unknown block '$block' (eval, bandwidth, radio, ocr, seeds, places, words, ocr-encodings)" >&2
        exit 2 ;;
   esac
 done

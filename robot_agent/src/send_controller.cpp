@@ -98,6 +98,10 @@ double SendController::selections_per_s() const {
 }
 
 double SendController::offered_bytes_per_s(std::size_t level) const {
+  return selections_per_s() * keyframe_bytes(level) / ladder_[level].density;
+}
+
+double SendController::keyframe_bytes(std::size_t level) const {
   double cost = cost_[level];
   if (cost == 0) {
     // Not measured yet: scaled from the nearest measured rung by the JPEG model.
@@ -114,7 +118,7 @@ double SendController::offered_bytes_per_s(std::size_t level) const {
     if (best == 0) return 0.0;  // nothing measured: no basis to choose on
     cost = cost_[nearest] * model_bytes(ladder_[level]) / model_bytes(ladder_[nearest]);
   }
-  return selections_per_s() * cost / ladder_[level].density;
+  return cost;
 }
 
 double SendController::backlog_wait_s(const LinkEstimate& link, std::uint64_t backlog_bytes) {
@@ -134,10 +138,32 @@ std::optional<LevelChange> SendController::update(std::int64_t now_ns, const Lin
   now_ns_ = std::max(now_ns_, now_ns);
   while (selections_.size() > 2 && ns_to_s(now_ns_ - selections_.front()) > kSelectionWindowS)
     selections_.pop_front();
-  if (!config_.enabled || !link.known || selections_.size() < 2) return std::nullopt;
+  if (!config_.enabled || !link.known || selections_.empty()) return std::nullopt;
   const double target = config_.latency_target_s;
   const double rate = link.delivery_bytes_per_s;
   const double wait = backlog_wait_s(link, backlog_bytes);
+  const auto change = [&](std::size_t to, std::string reason) {
+    LevelChange c{level_, to, std::move(reason)};
+    level_ = to;
+    last_change_ns_ = now_ns;
+    room_since_ns_ = -1;
+    density_counter_ = 0;
+    return c;
+  };
+  if (selections_.size() < 2) {
+    // No selection rate yet (the flight's first keyframe): it alone must cross the link, as
+    // estimated (the prior until something is measured), within half the target; a backlog
+    // made of a first keyframe too rich for the link would otherwise be drained by thinning.
+    std::size_t fit = level_;
+    while (fit + 1 < ladder_.size() && ladder_[fit + 1].density == 1 &&
+           keyframe_bytes(fit) > rate * target / 2)
+      ++fit;
+    if (fit == level_) return std::nullopt;
+    return change(fit, fmt::format("the first keyframe at the current level ({:.1f} kB) would "
+                                   "take {:.1f} s at {:.1f} kB/s (target {:g} s)",
+                                   keyframe_bytes(level_) / 1e3, keyframe_bytes(level_) / rate,
+                                   rate / 1e3, target));
+  }
   // What new keyframes may offer: the planned share of the rate, less what drains the part of
   // the backlog above half the target within the target.
   const double excess = std::max(0.0, double(backlog_bytes) - rate * target / 2);
@@ -151,14 +177,6 @@ std::optional<LevelChange> SendController::update(std::int64_t now_ns, const Lin
   if (fit > cheapest_encoding &&
       offered_bytes_per_s(cheapest_encoding) <= config_.utilisation * rate && !std::isinf(wait))
     fit = cheapest_encoding;
-  const auto change = [&](std::size_t to, std::string reason) {
-    LevelChange c{level_, to, std::move(reason)};
-    level_ = to;
-    last_change_ns_ = now_ns;
-    room_since_ns_ = -1;
-    density_counter_ = 0;
-    return c;
-  };
   // Down at once when the backlog waits half the target or the current level clearly overruns
   // the budget; a level a little over it (a cost estimate's noise) waits until the backlog says
   // so, which keeps a link near a rung's cost from flapping between two rungs.

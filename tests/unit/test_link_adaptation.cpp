@@ -259,6 +259,35 @@ TEST(SendController, StepDownLowersTheCostAndKeepsTheLatencyUnderTarget) {
   EXPECT_GT(unadapted.worst_latency(45, 110), 30.0);
 }
 
+TEST(SendController, TheFirstKeyframeCrossesTheLinkWithinHalfTheTarget) {
+  // Costs as calibrated on the first frame: 50, 32, 23.5, 18 kB at full size, then scaled.
+  const std::vector<double> relative = {1.0, 0.64, 0.47, 0.36, 0.36 * 0.5625, 0.36 * 0.25};
+  const auto first_level = [&](double rate) {
+    SendController controller(adaptive(), 85);
+    for (std::size_t i = 0; i < controller.ladder().size(); ++i)
+      controller.on_cost(
+          i, static_cast<std::uint64_t>(50'000 * relative[std::min(i, relative.size() - 1)]));
+    LinkEstimate prior;
+    prior.known = prior.from_prior = true;
+    prior.delivery_bytes_per_s = rate;
+    controller.update(0, prior, 0);  // before any selection: nothing to decide on
+    EXPECT_EQ(controller.level_index(), 0u);
+    controller.on_selection(kSecond);
+    const auto change = controller.update(kSecond, prior, 0);
+    if (controller.level_index() > 0) {
+      EXPECT_TRUE(change.has_value());
+      EXPECT_NE(change->reason.find("first keyframe"), std::string::npos) << change->reason;
+    }
+    EXPECT_EQ(controller.level().density, 1);  // never thinned for want of a rate
+    return controller.level_index();
+  };
+  EXPECT_EQ(first_level(120'000.0), 0u);  // 50 kB in 0.4 s
+  // 20 kB/s and a 3 s target: 30 kB within 1.5 s, the first rung at most that (23.5 kB).
+  EXPECT_EQ(first_level(20'000.0), 2u);
+  // 5 kB/s: 7.5 kB, the half-size rung (4.5 kB).
+  EXPECT_EQ(first_level(5'000.0), 5u);
+}
+
 TEST(SendController, StepUpRaisesTheLevelAgain) {
   const auto rate = [](double t) { return t < 40 ? 15'000.0 : 150'000.0; };
   const Trace trace = fly(adaptive(), rate, 120);

@@ -57,6 +57,9 @@ class SendController {
   static double backlog_wait_s(const LinkEstimate& link, std::uint64_t backlog_bytes);
   // Bytes per second the level would offer at the recent selection rate.
   double offered_bytes_per_s(std::size_t level) const;
+  // Bytes one keyframe costs at the level: measured, else scaled from the nearest measured
+  // level by the JPEG model; 0 before anything was measured.
+  double keyframe_bytes(std::size_t level) const;
   // Selections a second over the last 30 s (0 before the second one).
   double selections_per_s() const;
 
