@@ -188,22 +188,29 @@ def plot_words(results, out):
     if not missions:
         return False
     fig, ax = plt.subplots(figsize=(7, 4.5))
+    labels = {}  # one label per point, naming every mission there
     for key in sorted({group_of(m) for m in missions}):
         drones, secure, adapting = key
         rows = sorted(((kb_per_s_per_drone(results, m), m) for m in missions
                        if group_of(m) == key), key=lambda row: row[0])
         x = [rate for rate, _ in rows]
         y = [m["analysis"]["words_read"] for _, m in rows]
-        style = ":" if adapting else ("-" if secure else "--")
-        ax.plot(x, y, style, marker="o",
+        # Fixed: large hollow squares, so that an adapting point on the same spot stays visible.
+        ax.plot(x, y, ":" if adapting else ("-" if secure else "--"),
+                marker="o" if adapting else "s", markersize=5 if adapting else 11,
+                fillstyle="full" if adapting else "none",
                 label=f'{drones} drones{"" if secure else ", no security"}'
                 + (", adapting" if adapting else ", fixed q85"))
         for rate, m in rows:
-            ax.annotate(m["profile"]["name"], (rate, m["analysis"]["words_read"]),
-                        fontsize=6, xytext=(3, 3), textcoords="offset points")
+            spot = (round(rate, 1), m["analysis"]["words_read"])
+            name = m["profile"]["name"] + (" (adapting)" if adapting else "")
+            labels.setdefault(spot, []).append(name)
+    for (rate, words), names in labels.items():
+        ax.annotate("\n".join(names), (rate, words), fontsize=6, xytext=(6, -4),
+                    textcoords="offset points", va="top")
     ax.set_xlabel("stored keyframe payload per drone (kB per second of flight)")
     ax.set_ylabel("distinct sign words read at the station")
-    ax.set_ylim(bottom=0)
+    ax.set_ylim(0, max(m["analysis"]["words_read"] for m in missions) * 1.15 + 1)
     ax.set_xlim(left=0)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
