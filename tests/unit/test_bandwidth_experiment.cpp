@@ -299,6 +299,7 @@ ExperimentMission analysed(const std::string& name, double rate_kbit_s, bool ada
   a.analysed = 40;
   a.visible_words = 12;
   a.words_read = words_read;
+  a.words_read_in_time = rate_kbit_s > 0 && !adapting ? 0 : words_read;
   a.place_matches = 7;
   a.place_matches_right = 6;
   m.analysis = a;
@@ -330,6 +331,9 @@ TEST(AnalysisTable, WordsReadAgainstTheSameFlightOverTheUnlimitedLink) {
   // 800 kB over 2 drones and 20 s of flight: 20 kB/s per drone.
   EXPECT_NE(row("slow-adapting").find("20.0"), std::string::npos) << table;
   EXPECT_NE(row("slow").find("7 (6 right)"), std::string::npos) << table;
+  // Read in time: none for the fixed agent on the slow link, all for the adapting one.
+  EXPECT_NE(row("slow").find("4 of 12        0"), std::string::npos) << table;
+  EXPECT_NE(row("slow-adapting").find("8 of 12        8"), std::string::npos) << table;
   EXPECT_NE(table.find("no-database: not scored against the scenario: cannot open"),
             std::string::npos)
       << table;

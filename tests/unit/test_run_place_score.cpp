@@ -9,6 +9,7 @@
 #include "keyfleet/common/scenario_truth.hpp"
 #include "keyfleet/common/sqlite.hpp"
 #include "keyfleet/eval/run_place_score.hpp"
+#include "keyfleet/eval/run_text_score.hpp"
 #include "keyfleet/scenario/scenario_generator.hpp"
 #include "keyfleet/station/station_schema.hpp"
 #include "test_support.hpp"
@@ -88,6 +89,16 @@ TEST(RunPlaceScore, MatchesBetweenRobotsAreRightWithinTheToleranceOnTheStreet) {
   EXPECT_EQ(score.right, 1u);
   EXPECT_EQ(score.matched_keyframes, 2u);  // a/0 and the stranger's
   EXPECT_NEAR(score.precision(), 1.0 / 3.0, 1e-12);
+
+  // The text score over the same keyframes, and over those a filter keeps (e.g. in time).
+  EXPECT_EQ(score_run_text(street, db_path).keyframes, 3u);
+  const auto only_a = score_run_text(
+      street, db_path, [&](const std::string& robot, std::int64_t) { return robot == a; });
+  EXPECT_EQ(only_a.keyframes, 1u);
+  const auto none =
+      score_run_text(street, db_path, [](const std::string&, std::int64_t) { return false; });
+  EXPECT_EQ(none.keyframes, 0u);
+  EXPECT_EQ(none.read_visible, 0u);
 }
 
 TEST(RunPlaceScore, MissingDatabaseOrScenarioIsAnErrorNamingIt) {

@@ -180,41 +180,47 @@ def kb_per_s_per_drone(results, mission):
 
 
 def plot_words(results, out):
-    """Words read at the station against kB/s per drone: a point per mission, a line per
-    fleet size, security and adaptation (the missions that replayed a scenario)."""
+    """Words read at the station against kB/s per drone, over the whole flight and within
+    words_in_time_s of capture: a point per mission, a line per fleet size, security and
+    adaptation (the missions that replayed a scenario)."""
     missions = [m for m in results["missions"]
                 if m.get("analysis") and "words_read" in m["analysis"]
                 and kb_per_s_per_drone(results, m) is not None]
     if not missions:
         return False
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    labels = {}  # one label per point, naming every mission there
-    for key in sorted({group_of(m) for m in missions}):
-        drones, secure, adapting = key
-        rows = sorted(((kb_per_s_per_drone(results, m), m) for m in missions
-                       if group_of(m) == key), key=lambda row: row[0])
-        x = [rate for rate, _ in rows]
-        y = [m["analysis"]["words_read"] for _, m in rows]
-        # Fixed: large hollow squares, so that an adapting point on the same spot stays visible.
-        ax.plot(x, y, ":" if adapting else ("-" if secure else "--"),
-                marker="o" if adapting else "s", markersize=5 if adapting else 11,
-                fillstyle="full" if adapting else "none",
-                label=f'{drones} drones{"" if secure else ", no security"}'
-                + (", adapting" if adapting else ", fixed q85"))
-        for rate, m in rows:
-            spot = (round(rate, 1), m["analysis"]["words_read"])
-            name = m["profile"]["name"] + (" (adapting)" if adapting else "")
-            labels.setdefault(spot, []).append(name)
-    for (rate, words), names in labels.items():
-        ax.annotate("\n".join(names), (rate, words), fontsize=6, xytext=(6, -4),
-                    textcoords="offset points", va="top")
-    ax.set_xlabel("stored keyframe payload per drone (kB per second of flight)")
-    ax.set_ylabel("distinct sign words read at the station")
-    ax.set_ylim(0, max(m["analysis"]["words_read"] for m in missions) * 1.15 + 1)
-    ax.set_xlim(left=0)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    ax.set_title("Words read per byte")
+    within = results.get("words_in_time_s", 5)
+    panels = [("words_read", "in the end (whole flight, drained)"),
+              ("words_read_in_time", f"within {within:g} s of capture")]
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), sharey=True)
+    top = max(m["analysis"]["words_read"] for m in missions) * 1.15 + 1
+    for ax, (key_name, title) in zip(axes, panels):
+        labels = {}  # one label per point, naming every mission there
+        for key in sorted({group_of(m) for m in missions}):
+            drones, secure, adapting = key
+            rows = sorted(((kb_per_s_per_drone(results, m), m) for m in missions
+                           if group_of(m) == key), key=lambda row: row[0])
+            x = [rate for rate, _ in rows]
+            y = [m["analysis"].get(key_name, 0) for _, m in rows]
+            # Fixed: large hollow squares, so that an adapting point on the same spot shows.
+            ax.plot(x, y, ":" if adapting else ("-" if secure else "--"),
+                    marker="o" if adapting else "s", markersize=5 if adapting else 11,
+                    fillstyle="full" if adapting else "none",
+                    label=f'{drones} drones{"" if secure else ", no security"}'
+                    + (", adapting" if adapting else ", fixed q85"))
+            for rate, words, (_, m) in zip(x, y, rows):
+                name = m["profile"]["name"] + (" (adapting)" if adapting else "")
+                labels.setdefault((round(rate, 1), words), []).append(name)
+        for (rate, words), names in labels.items():
+            ax.annotate("\n".join(names), (rate, words), fontsize=6, xytext=(6, -4),
+                        textcoords="offset points", va="top")
+        ax.set_xlabel("stored keyframe payload per drone (kB per second of flight)")
+        ax.set_ylim(0, top)
+        ax.set_xlim(left=0)
+        ax.grid(alpha=0.3)
+        ax.set_title(f"sign words read {title}", fontsize=9)
+    axes[0].set_ylabel("distinct sign words read at the station")
+    axes[0].legend(fontsize=7)
+    fig.suptitle("Words read per byte")
     fig.tight_layout()
     fig.savefig(out, dpi=90)
     plt.close(fig)
@@ -226,22 +232,24 @@ def analysis_lines(results):
     if not missions:
         return []
     lines = ["## The station's analysis against the scenario's truth", "",
-             "| mission | keyframes | analysed | sign words read | vs unlimited | junk | "
-             "place matches (right) | kB/s per drone |", "|" + "---|" * 8]
+             "| mission | keyframes | analysed | sign words read | read in time | vs unlimited | "
+             "junk | place matches (right) | kB/s per drone |", "|" + "---|" * 9]
     for m in missions:
         a = m["analysis"]
         if "error" in a:
-            lines.append(f'| {m["name"]} | {a["error"]} |' + " |" * 6)
+            lines.append(f'| {m["name"]} | {a["error"]} |' + " |" * 7)
             continue
         versus = m.get("words_read_vs_unlimited")
         lines.append(
             f'| {m["name"]} | {a["keyframes"]} | {a["analysed"]} | '
-            f'{a["words_read"]} of {a["visible_words"]} | '
+            f'{a["words_read"]} of {a["visible_words"]} | {a.get("words_read_in_time", "-")} | '
             f'{fmt(None if versus is None else 100 * versus, ".0f")} % | {a["junk"]} | '
             f'{a["place_matches"]} ({a["place_matches_right"]}) | '
             f'{fmt(kb_per_s_per_drone(results, m), ".1f")} |')
     lines += ["", "Sign words read: distinct words of the street's signs fully visible in a stored "
-              "keyframe and read there; vs unlimited: against the same flight over the unlimited "
+              "keyframe and read there; in time: read in keyframes the station stored within "
+              f'{results.get("words_in_time_s", 5):g} s of their capture; '
+              "vs unlimited: against the same flight over the unlimited "
               "profile (same link kind, security and fleet). Place matches: stored matches "
               "between two robots' keyframes, right when both look within 5 m on the street.", ""]
     return lines

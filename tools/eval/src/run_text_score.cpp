@@ -35,7 +35,8 @@ std::string join(const std::vector<std::string>& words, std::size_t limit) {
 
 }  // namespace
 
-RunTextScore score_run_text(const std::string& scenario_dir, const std::string& station_db) {
+RunTextScore score_run_text(const std::string& scenario_dir, const std::string& station_db,
+                            const KeyframeFilter& keep) {
   const scenario::Scenario street = scenario::read_scenario(scenario_dir);
   std::set<std::string> street_words;  // every part of every sign's word, normalised
   for (const auto& sign : street.signs)
@@ -51,6 +52,7 @@ RunTextScore score_run_text(const std::string& scenario_dir, const std::string& 
   std::set<std::string> junk_words;
   auto words = db.prepare("SELECT robot_id, sequence_number, text, x, y, width, height FROM words");
   while (words.step()) {
+    if (keep && !keep(words.text(0), words.int64(1))) continue;
     const std::string text = words.text(2);
     const double x = words.real(3), y = words.real(4);
     read[{words.text(0), words.int64(1)}].push_back(
@@ -73,6 +75,7 @@ RunTextScore score_run_text(const std::string& scenario_dir, const std::string& 
     const auto drone = truth.find(keyframes.text(0));
     const auto frame = std::size_t(keyframes.int64(2));
     if (drone == truth.end() || frame >= drone->second.size()) continue;
+    if (keep && !keep(keyframes.text(0), keyframes.int64(1))) continue;
     ++score.keyframes;
     const scenario::FrameTruth& view = drone->second[frame];
     const std::set<int> shown = fully_visible_signs(view);

@@ -140,16 +140,22 @@ void BandwidthExperiment::prepare_scenario(const std::string& dir) {
 }
 
 // The station's reading and place matches against the street's truth.
-void BandwidthExperiment::add_analysis(ExperimentMission& out) const {
+void BandwidthExperiment::add_analysis(
+    ExperimentMission& out, const std::set<std::pair<std::string, std::int64_t>>& in_time) const {
   const std::string db = (fs::path(out.run_dir) / "station" / "station.sqlite").string();
   try {
     const auto text = eval::score_run_text(scenario_dir_, db);
+    const auto timely = eval::score_run_text(
+        scenario_dir_, db, [&](const std::string& robot, std::int64_t sequence) {
+          return in_time.count({robot, sequence}) > 0;
+        });
     const auto places = eval::score_run_places(scenario_dir_, db);
     MissionAnalysis a;
     a.keyframes = places.keyframes;
     a.analysed = places.analysed;
     a.visible_words = text.visible_words;
     a.words_read = text.read_visible;
+    a.words_read_in_time = timely.read_visible;
     a.words_reported = text.words_reported;
     a.junk = text.junk;
     a.place_matches = places.matches;
@@ -333,6 +339,7 @@ ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const
   for (auto& capture : captures)
     if (capture) capture->stop();
 
+  std::set<std::pair<std::string, std::int64_t>> in_time;  // keyframes stored in time
   try {
     const auto records =
         read_station_records((fs::path(out.run_dir) / "station" / "station.sqlite").string());
@@ -356,6 +363,10 @@ ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const
       std::vector<DeliveredKeyframe> mine;
       for (const auto& k : records.keyframes)
         if (k.robot_id == robot) mine.push_back(k);
+      for (const auto& k : mine)
+        if (origin && static_cast<double>(k.received_ns - (*origin + k.capture_time_ns)) <=
+                          config_.words_in_time_s * 1e9)
+          in_time.insert({robot, k.sequence_number});
       add_start_times(r, log, mine);
       if (captures[i]) {
         try {
@@ -375,10 +386,12 @@ ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const
     out.failures.push_back(e.what());
   }
   if (!scenario_dir_.empty()) {
-    add_analysis(out);
+    add_analysis(out, in_time);
     if (out.analysis)
       progress_ << "station read " << out.analysis->words_read << " of "
-                << out.analysis->visible_words << " sign words visible in "
+                << out.analysis->visible_words << " sign words visible ("
+                << out.analysis->words_read_in_time << " within " << config_.words_in_time_s
+                << " s of capture) in "
                 << out.analysis->keyframes << " keyframes (" << out.analysis->analysed
                 << " analysed); " << out.analysis->place_matches
                 << " place matches between robots, " << out.analysis->place_matches_right

@@ -102,11 +102,12 @@ StationRecords read_station_records(const std::string& database_path) {
   try {
     SqliteDb db(database_path, SqliteDb::Mode::kReadOnly);
     auto keyframes = db.prepare(
-        "SELECT robot_id, capture_time_ns, received_ns, serialized_bytes FROM keyframes "
-        "ORDER BY robot_id, received_ns");
+        "SELECT robot_id, capture_time_ns, received_ns, serialized_bytes, sequence_number FROM "
+        "keyframes ORDER BY robot_id, received_ns");
     while (keyframes.step())
       records.keyframes.push_back({keyframes.text(0), keyframes.int64(1), keyframes.int64(2),
-                                   static_cast<std::uint64_t>(keyframes.int64(3))});
+                                   static_cast<std::uint64_t>(keyframes.int64(3)),
+                                   keyframes.int64(4)});
     auto stats = db.prepare("SELECT * FROM agent_stats");
     while (stats.step()) {
       AgentStats s;

@@ -49,6 +49,7 @@ void visit(V& v, BandwidthExperimentConfig& c) {
   v.field("idle_window_s", c.idle_window_s, between(0.0, 600.0));
   v.field("capture", c.capture);
   v.field("bin_s", c.bin_s, between(0.01, 60.0));
+  v.field("words_in_time_s", c.words_in_time_s, between(0.0, 3600.0));
   v.field("python", c.python);
   v.section("mission", c.mission);
 }

@@ -3,6 +3,8 @@
 // words fully visible in the keyframes it received, how many it read there, and how many of the
 // words it reported are no word of the street at all (junk).
 #include <cstddef>
+#include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -24,7 +26,11 @@ struct RunTextScore {
 // `scenario_dir`: the generated scenario; `station_db`: the station's SQLite database (opened
 // read-only). Robots are matched to the scenario's drones by robot id. Throws StartupError or
 // std::runtime_error naming the file that cannot be read.
-RunTextScore score_run_text(const std::string& scenario_dir, const std::string& station_db);
+// `keep` (robot id, sequence number), when given, limits the score to the keyframes it keeps
+// (e.g. those that arrived within a latency bound).
+using KeyframeFilter = std::function<bool(const std::string& robot_id, std::int64_t sequence)>;
+RunTextScore score_run_text(const std::string& scenario_dir, const std::string& station_db,
+                            const KeyframeFilter& keep = {});
 
 // The score as a few lines of text for a report.
 std::string format_run_text_score(const RunTextScore& score);

@@ -3,6 +3,7 @@
 // links, each measured per robot from the station's database, written as results.json,
 // results.csv and (through tools/report/bandwidth_report.py) report.md with plots.
 #include <optional>
+#include <set>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -42,6 +43,7 @@ struct MissionAnalysis {
   std::size_t analysed = 0;             // of those, analysed by the station before it stopped
   std::size_t visible_words = 0;        // distinct sign words fully visible in a stored keyframe
   std::size_t words_read = 0;           // of those, read where they were visible
+  std::size_t words_read_in_time = 0;   // ... in keyframes stored within words_in_time_s
   std::size_t words_reported = 0;       // every word the station stored
   std::size_t junk = 0;                 // of those, no word of the street
   std::size_t place_matches = 0;        // stored matches between two robots' keyframes
@@ -91,7 +93,8 @@ class BandwidthExperiment {
                                 const StopToken& stop);
 
   void prepare_scenario(const std::string& dir);
-  void add_analysis(ExperimentMission& out) const;
+  void add_analysis(ExperimentMission& out,
+                    const std::set<std::pair<std::string, std::int64_t>>& in_time) const;
 
   BandwidthExperimentConfig config_;
   MissionBinaries binaries_;

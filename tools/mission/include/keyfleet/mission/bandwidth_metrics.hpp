@@ -18,6 +18,7 @@ struct DeliveredKeyframe {
   std::int64_t capture_time_ns = 0;    // agent clock (the same machine clock here)
   std::int64_t received_ns = 0;        // station clock
   std::uint64_t serialized_bytes = 0;  // serialized DDS sample
+  std::int64_t sequence_number = -1;   // the robot's; -1 where not known
 };
 
 // The agent's last stats sample as the station stored it.

@@ -51,6 +51,9 @@ struct BandwidthExperimentConfig {
   // bytes go: keyframe data, repairs, control, discovery, security, other topics).
   bool capture = true;
   double bin_s = 1.0;                       // bandwidth-over-time bins (s)
+  // A replayed scenario's words are also counted over the keyframes that reached the station
+  // within this long of their capture ("read in time"; the link targets' latency bound).
+  double words_in_time_s = 5.0;
   std::string python = "/usr/bin/python3";  // runs tools/report/bandwidth_report.py (matplotlib)
   // Agent and station templates; name and drones are set per mission. With mission.scenario (or
   // scenario_dir) the scenario is generated once and every mission replays its first `drones`
