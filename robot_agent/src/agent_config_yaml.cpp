@@ -108,6 +108,7 @@ void visit(V& v, SelectorConfig& c) {
   v.field("strategy", c.strategy);
   v.field("density", c.density, between(1, 1000));
   v.field("max_window_frames", c.max_window_frames, between(1, 10000));
+  v.field("max_scored", c.max_scored, between(0, 10000));
   v.section("trigger", c.trigger);
   v.section("quality", c.quality);
   v.section("semantic", c.semantic);

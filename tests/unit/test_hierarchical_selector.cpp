@@ -1,7 +1,8 @@
 // The hierarchical selector around V-SLAM keyframes, driven by a stride trigger and a test
 // double segmenter: the known-best frame of a window wins, windows have the documented size
 // and position and close on time, density and the vslam strategy keep the right keyframes,
-// finish() flushes, and a window without a sharp frame still yields a selection.
+// finish() flushes, a window without a sharp frame still yields a selection, and max_scored
+// bounds the frames the segmenter scores per window.
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
@@ -19,6 +20,7 @@
 #include "keyfleet/agent/agent_config.hpp"
 #include "keyfleet/agent/keyframe_selector.hpp"
 #include "keyfleet/agent/keyframe_trigger.hpp"
+#include "keyfleet/common/config_error.hpp"
 #include "keyfleet/vision/text_segmenter.hpp"
 #include "test_support.hpp"
 
@@ -166,10 +168,11 @@ class ScriptedTrigger final : public KeyframeTrigger {
 
 // --- running the selector ----------------------------------------------------------------------
 
-SelectorConfig config_for(Strategy strategy, int density = 1) {
+SelectorConfig config_for(Strategy strategy, int density = 1, int max_scored = 0) {
   SelectorConfig config;
   config.strategy = strategy;
   config.density = density;
+  config.max_scored = max_scored;
   return config;
 }
 
@@ -411,6 +414,57 @@ TEST(HierarchicalSelector, KeyframeBeforeTheWindowClosesDecidesItWithoutRepeatin
   for (const auto& e : run.emitted)
     EXPECT_TRUE(published.insert(e.selection.frame.index).second)
         << "frame " << e.selection.frame.index << " selected twice: " << describe(run.emitted);
+}
+
+// The segmenter's batch for keyframe 30's window (20..35, 16 frames, a third is 5) when every
+// frame passes the sharpness gate: frame 27 is the sharpest, 23 the next, the rest soft.
+std::vector<std::uint64_t> window_batch(Strategy strategy, int max_scored) {
+  auto log = std::make_shared<SegmenterLog>();
+  auto selector = selector_with(config_for(strategy, 1, max_scored), 30, {}, log);
+  const auto frames = make_frames(36, looks().soft, {{27, looks().sharp}, {23, looks().sharp}});
+  const Stream run = push_all(selector, frames);
+  EXPECT_EQ(run.emitted.size(), 2u) << describe(run.emitted);
+  EXPECT_EQ(log->batches.size(), 2u);
+  return log->batches.size() == 2 ? log->batches[1] : std::vector<std::uint64_t>{};
+}
+
+TEST(HierarchicalSelector, MaxScoredDefaultsToTheThirdOfTheWindow) {
+  EXPECT_EQ(SelectorConfig().max_scored, 0);
+  EXPECT_EQ(parse_agent_config("", "agent.yaml").selector.max_scored, 0);
+  for (Strategy strategy : {Strategy::kFull, Strategy::kSemantic}) {
+    EXPECT_EQ(window_batch(strategy, 0).size(), 16u / 3);
+    // A bound above the third changes nothing.
+    EXPECT_EQ(window_batch(strategy, 6), window_batch(strategy, 0));
+    EXPECT_EQ(window_batch(strategy, 5), window_batch(strategy, 0));
+  }
+}
+
+TEST(HierarchicalSelector, MaxScoredBoundsTheSegmentersBatch) {
+  // full: the best frames by quality, in quality order.
+  const auto full_two = window_batch(Strategy::kFull, 2);
+  ASSERT_EQ(full_two.size(), 2u);
+  EXPECT_EQ(std::set<std::uint64_t>(full_two.begin(), full_two.end()),
+            (std::set<std::uint64_t>{23, 27}));
+  const auto full_one = window_batch(Strategy::kFull, 1);
+  ASSERT_EQ(full_one.size(), 1u);
+  EXPECT_EQ(full_one[0], full_two[0]) << "the first by quality is kept";
+  const auto full_default = window_batch(Strategy::kFull, 0);
+  EXPECT_TRUE(std::equal(full_two.begin(), full_two.end(), full_default.begin()))
+      << "a bound keeps the head of the default batch";
+
+  // semantic: fewer frames, still spread over the window.
+  const auto spread = window_batch(Strategy::kSemantic, 2);
+  ASSERT_EQ(spread.size(), 2u);
+  EXPECT_EQ(spread, (std::vector<std::uint64_t>{20, 28}));
+  EXPECT_EQ(window_batch(Strategy::kSemantic, 1), (std::vector<std::uint64_t>{20}));
+}
+
+TEST(HierarchicalSelector, MaxScoredIsReadFromYamlAndChecked) {
+  EXPECT_EQ(parse_agent_config("selector:\n  max_scored: 2\n", "agent.yaml").selector.max_scored,
+            2);
+  EXPECT_THROW(parse_agent_config("selector:\n  max_scored: -1\n", "agent.yaml"), ConfigError);
+  const AgentConfig two = parse_agent_config("selector:\n  max_scored: 3\n", "agent.yaml");
+  EXPECT_EQ(parse_agent_config(to_yaml(two), "round-trip").selector.max_scored, 3);
 }
 
 TEST(HierarchicalSelector, SemanticStrategiesNeedASegmenter) {

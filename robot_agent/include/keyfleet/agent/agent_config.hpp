@@ -94,6 +94,9 @@ struct SelectorConfig {
   Strategy strategy = Strategy::kFull;
   int density = 1;             // one keyframe per `density` V-SLAM keyframes
   int max_window_frames = 90;  // frames buffered at most (windows are clipped to them)
+  // Frames given to the segmenter per window at most (`semantic`, `full`); 0 = a third of the
+  // window (Alonso et al.). The segmenter's cost grows with each frame scored.
+  int max_scored = 0;
   TriggerConfig trigger;
   QualityConfig quality;
   SemanticConfig semantic;

@@ -49,7 +49,8 @@ class KeyframeSelector {
 // among frames that pass the sharpness gate; `full` runs the segmenter on the top W/3 of
 // those as one batch and picks the best text score (quality breaks ties and decides when no
 // text is seen); `semantic` scores up to W/3 frames spread over the window; `vslam` publishes
-// the V-SLAM keyframe itself. `density` keeps one of every m V-SLAM keyframes.
+// the V-SLAM keyframe itself. `density` keeps one of every m V-SLAM keyframes. A positive
+// `max_scored` caps the frames scored per window below W/3 (for `full`, the best by quality).
 class HierarchicalSelector final : public KeyframeSelector {
  public:
   HierarchicalSelector(const SelectorConfig& config, std::unique_ptr<KeyframeTrigger> trigger,
