@@ -499,14 +499,15 @@ TEST(ShippedConfigs, StationYamlLoads) {
 }
 
 // configs/ naming: scenario_*.yaml are scenario files, eval*.yaml evaluations,
-// experiment_bandwidth*.yaml bandwidth experiments, every other extra file a mission.
+// experiment_bandwidth*.yaml bandwidth experiments, every other extra file a mission; the
+// subfolders (the configs of one measurement) by the same names.
 TEST(ShippedConfigs, EveryScenarioAndMissionFileInConfigsLoads) {
   int scenarios = 0, missions = 0, evaluations = 0, experiments = 0;
-  for (const auto& entry : std::filesystem::directory_iterator(configs_dir())) {
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(configs_dir())) {
     const auto name = entry.path().filename().string();
     if (entry.path().extension() != ".yaml" || name == "agent.yaml" || name == "station.yaml")
       continue;
-    SCOPED_TRACE(name);
+    SCOPED_TRACE(entry.path().string());
     if (name.rfind("scenario_", 0) == 0) {
       EXPECT_NO_THROW(load_scenario_config(entry.path().string()));
       ++scenarios;
@@ -523,9 +524,11 @@ TEST(ShippedConfigs, EveryScenarioAndMissionFileInConfigsLoads) {
   }
   EXPECT_GT(scenarios, 0);
   EXPECT_GT(missions, 0);
-  // eval.yaml (the demo's street), eval_side.yaml, eval_encodings.yaml (issue 30's encodings)
-  EXPECT_EQ(evaluations, 3);
-  EXPECT_EQ(experiments, 3);  // experiment_bandwidth{,_radio,_adaptation}.yaml
+  // eval.yaml (the demo's street), eval_side.yaml, eval_encodings.yaml (issue 30's encodings),
+  // and semantic_candidates/'s six (selector.max_scored 0, 2, 3 on both street kinds)
+  EXPECT_EQ(evaluations, 9);
+  // experiment_bandwidth{,_radio,_adaptation,_words}.yaml
+  EXPECT_EQ(experiments, 4);
 }
 
 }  // namespace
