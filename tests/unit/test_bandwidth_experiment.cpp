@@ -340,6 +340,15 @@ TEST(AnalysisTable, WordsReadAgainstTheSameFlightOverTheUnlimitedLink) {
   EXPECT_NE(experiment_table(result).find("against the scenario's truth"), std::string::npos);
 }
 
+TEST(AnalysisTable, InTimeIsADashWhereTheLatencyWasNotMeasured) {
+  ExperimentResult result;
+  result.flight_s = 20;
+  result.missions.push_back(analysed("unlimited", 0, false, 10, 4'000'000));
+  result.missions.back().analysis->in_time_known = false;
+  const std::string table = analysis_table(result);
+  EXPECT_NE(table.find("10 of 12        -"), std::string::npos) << table;
+}
+
 TEST(AnalysisTable, NothingWithoutAScenario) {
   ExperimentResult result;
   result.missions.push_back(analysed("plain", 250, false, 0, 1000));

@@ -38,6 +38,7 @@ TEST(EncodingSpec, BadSpecsNameWhatIsWrong) {
   EXPECT_NE(error("a=55@0").find("scale must be in (0, 1]"), std::string::npos);
   EXPECT_NE(error("a=55@1.5").find("scale"), std::string::npos);
   EXPECT_NE(error("a=55@").find("scale"), std::string::npos);
+  EXPECT_NE(error("a|b=55").find("name must be"), std::string::npos);
 }
 
 // Marks one rectangle of the frame as text (at the frame's own size).

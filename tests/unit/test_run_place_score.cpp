@@ -81,6 +81,11 @@ TEST(RunPlaceScore, MatchesBetweenRobotsAreRightWithinTheToleranceOnTheStreet) {
     add_match(db, a, 0, b, 1);                 // wrong: far apart
     add_match(db, b, 1, b, 0);                 // one robot with itself: not between robots
     add_match(db, "stranger", 0, a, 0);        // unknown keyframe: counted, never right
+    for (const auto& [robot, sequence] : {std::pair<std::string, int>{a, 0}, {b, 0}})
+      db.exec(
+          "INSERT INTO words (robot_id, sequence_number, text, confidence, x, y, width, "
+          "height) VALUES ('" +
+          robot + "', " + std::to_string(sequence) + ", 'ZZQX', 0.9, 1, 1, 10, 10)");
   }
   const RunPlaceScore score = score_run_places(street, db_path);
   EXPECT_EQ(score.keyframes, 3u);
@@ -90,14 +95,20 @@ TEST(RunPlaceScore, MatchesBetweenRobotsAreRightWithinTheToleranceOnTheStreet) {
   EXPECT_EQ(score.matched_keyframes, 2u);  // a/0 and the stranger's
   EXPECT_NEAR(score.precision(), 1.0 / 3.0, 1e-12);
 
-  // The text score over the same keyframes, and over those a filter keeps (e.g. in time).
-  EXPECT_EQ(score_run_text(street, db_path).keyframes, 3u);
+  // The text score over the same keyframes, and over those a filter keeps (e.g. in time): the
+  // keyframes and the words the station stored in them.
+  const auto all = score_run_text(street, db_path);
+  EXPECT_EQ(all.keyframes, 3u);
+  EXPECT_EQ(all.words_reported, 2u);
+  EXPECT_EQ(all.junk, 2u);  // no word of the street
   const auto only_a = score_run_text(
       street, db_path, [&](const std::string& robot, std::int64_t) { return robot == a; });
   EXPECT_EQ(only_a.keyframes, 1u);
+  EXPECT_EQ(only_a.words_reported, 1u);
   const auto none =
       score_run_text(street, db_path, [](const std::string&, std::int64_t) { return false; });
   EXPECT_EQ(none.keyframes, 0u);
+  EXPECT_EQ(none.words_reported, 0u);
   EXPECT_EQ(none.read_visible, 0u);
 }
 

@@ -62,7 +62,8 @@ void add_experiment_commands(CLI::App& app) {
       ->required()
       ->check(CLI::ExistingFile);
   bandwidth->add_option("--run-root", options->run_root, "override where the folder is created");
-  bandwidth->add_option("--drones", options->drones, "override the fleet sizes, e.g. --drones 2 4");
+  bandwidth->add_option("--drones", options->drones, "override the fleet sizes, e.g. --drones 2 4")
+      ->check(CLI::Range(1, 64));
   bandwidth->add_option("--links", options->links, "override the link kinds: flow_control netns");
   bandwidth->callback([options] { run_reporting([&] { run_bandwidth(*options); }); });
 }

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "keyfleet/common/config_error.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/file_output.hpp"
 #include "keyfleet/eval/eval_runner.hpp"
@@ -146,7 +147,17 @@ std::string encodings_header(const OcrOptions& o) {
 
 void run_eval(const OcrOptions& o) {
   std::vector<EvalEncoding> encodings;
-  for (const auto& spec : o.encodings) encodings.push_back(eval::parse_encoding_spec(spec));
+  for (const auto& spec : o.encodings) {
+    encodings.push_back(eval::parse_encoding_spec(spec));
+    for (std::size_t i = 0; i + 1 < encodings.size(); ++i)
+      if (encodings[i].name == encodings.back().name)
+        throw ConfigError("--encoding: the name '" + encodings.back().name + "' is given twice");
+  }
+  if (!encodings.empty() && std::none_of(o.sets.begin(), o.sets.end(),
+                                         [](const std::string& n) { return find_set(n).photos; }))
+    throw ConfigError(
+        "--encoding reads photo sets only (test_clean, test_blurred, train): none "
+        "is among --sets");
   std::shared_ptr<vision::TextSegmenter> segmenter;
   if (std::any_of(encodings.begin(), encodings.end(),
                   [](const EvalEncoding& e) { return e.text_aware; }))

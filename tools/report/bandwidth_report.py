@@ -190,7 +190,7 @@ def plot_words(results, out):
         return False
     within = results.get("words_in_time_s", 5)
     panels = [("words_read", "in the end (whole flight, drained)"),
-              ("words_read_in_time", f"within {within:g} s of capture")]
+              ("words_read_in_time", f"in keyframes stored within {within:g} s of capture")]
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), sharey=True)
     top = max(m["analysis"]["words_read"] for m in missions) * 1.15 + 1
     for ax, (key_name, title) in zip(axes, panels):
@@ -200,14 +200,17 @@ def plot_words(results, out):
             rows = sorted(((kb_per_s_per_drone(results, m), m) for m in missions
                            if group_of(m) == key), key=lambda row: row[0])
             x = [rate for rate, _ in rows]
-            y = [m["analysis"].get(key_name, 0) for _, m in rows]
+            y = [m["analysis"].get(key_name) for _, m in rows]
+            y = [float("nan") if v is None else v for v in y]  # not measured: no point
             # Fixed: large hollow squares, so that an adapting point on the same spot shows.
             ax.plot(x, y, ":" if adapting else ("-" if secure else "--"),
                     marker="o" if adapting else "s", markersize=5 if adapting else 11,
                     fillstyle="full" if adapting else "none",
                     label=f'{drones} drones{"" if secure else ", no security"}'
-                    + (", adapting" if adapting else ", fixed q85"))
+                    + (", adapting" if adapting else ", fixed"))
             for rate, words, (_, m) in zip(x, y, rows):
+                if words != words:  # nan
+                    continue
                 name = m["profile"]["name"] + (" (adapting)" if adapting else "")
                 labels.setdefault((round(rate, 1), words), []).append(name)
         for (rate, words), names in labels.items():
@@ -242,8 +245,8 @@ def analysis_lines(results):
         versus = m.get("words_read_vs_unlimited")
         lines.append(
             f'| {m["name"]} | {a["keyframes"]} | {a["analysed"]} | '
-            f'{a["words_read"]} of {a["visible_words"]} | {a.get("words_read_in_time", "-")} | '
-            f'{fmt(None if versus is None else 100 * versus, ".0f")} % | {a["junk"]} | '
+            f'{a["words_read"]} of {a["visible_words"]} | {fmt(a.get("words_read_in_time"), "d")} | '
+            f'{fmt(None if versus is None else 100 * versus, ".0f")}{"" if versus is None else " %"} | {a["junk"]} | '
             f'{a["place_matches"]} ({a["place_matches_right"]}) | '
             f'{fmt(kb_per_s_per_drone(results, m), ".1f")} |')
     lines += ["", "Sign words read: distinct words of the street's signs fully visible in a stored "

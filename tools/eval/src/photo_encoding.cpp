@@ -1,5 +1,7 @@
 #include "keyfleet/eval/photo_encoding.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <cstdlib>
 
 #include "keyfleet/agent/level_encoding.hpp"
@@ -19,6 +21,11 @@ EvalEncoding parse_encoding_spec(const std::string& spec) {
   if (equals == std::string::npos || equals == 0) throw fail("no NAME=");
   EvalEncoding e;
   e.name = spec.substr(0, equals);
+  const bool name_ok =
+      e.name.size() <= 32 && std::all_of(e.name.begin(), e.name.end(), [](char c) {
+        return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == '-';
+      });
+  if (!name_ok) throw fail("the name must be 1 to 32 of [A-Za-z0-9_.-]");
   std::string rest = spec.substr(equals + 1);
   const std::string suffix = "+text";
   if (rest.size() > suffix.size() &&

@@ -129,12 +129,11 @@ void BandwidthExperiment::prepare_scenario(const std::string& dir) {
     frames = std::min(frames, config_.mission.agent.source.max_frames);
   scenario_flight_s_ = fps > 0 ? static_cast<double>(frames) / fps : 0;
   for (int drones : config_.drones)
-    if (drones > static_cast<int>(scenario_drones_.size()))
+    if (drones < 1 || drones > static_cast<int>(scenario_drones_.size()))
       throw StartupError("experiment: drones: " + std::to_string(drones) +
-                         " asked for, but the "
-                         "scenario " +
-                         scenario_dir_ + " has " + std::to_string(scenario_drones_.size()) +
-                         " drones");
+                         " asked for, but the scenario " + scenario_dir_ + " has " +
+                         std::to_string(scenario_drones_.size()) + " drones (1.." +
+                         std::to_string(scenario_drones_.size()) + ")");
   progress_ << "scenario: " << scenario_drones_.size() << " drones, " << scenario_flight_s_
             << " s of flight each, replayed by every mission\n";
 }
@@ -145,10 +144,10 @@ void BandwidthExperiment::add_analysis(
   const std::string db = (fs::path(out.run_dir) / "station" / "station.sqlite").string();
   try {
     const auto text = eval::score_run_text(scenario_dir_, db);
-    const auto timely = eval::score_run_text(
-        scenario_dir_, db, [&](const std::string& robot, std::int64_t sequence) {
-          return in_time.count({robot, sequence}) > 0;
-        });
+    const auto timely = eval::score_run_text(scenario_dir_, db,
+                                             [&](const std::string& robot, std::int64_t sequence) {
+                                               return in_time.count({robot, sequence}) > 0;
+                                             });
     const auto places = eval::score_run_places(scenario_dir_, db);
     MissionAnalysis a;
     a.keyframes = places.keyframes;
@@ -340,6 +339,7 @@ ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const
     if (capture) capture->stop();
 
   std::set<std::pair<std::string, std::int64_t>> in_time;  // keyframes stored in time
+  bool in_time_known = true;  // every robot's stream start was found (latency measurable)
   try {
     const auto records =
         read_station_records((fs::path(out.run_dir) / "station" / "station.sqlite").string());
@@ -357,6 +357,7 @@ ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const
       r.metrics = robot_metrics(robot, records.keyframes, totals,
                                 netns ? netns->counters(robot) : std::nullopt, origin.value_or(0));
       r.latency_measured = origin.has_value();
+      in_time_known = in_time_known && origin.has_value();
       r.metrics.refused_writes = count_refused_writes(log);
       r.frames_seen = totals ? totals->frames_seen : 0;
       r.pending = totals ? totals->keyframes_pending : 0;
@@ -387,11 +388,12 @@ ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const
   }
   if (!scenario_dir_.empty()) {
     add_analysis(out, in_time);
+    if (out.analysis) out.analysis->in_time_known = in_time_known;
     if (out.analysis)
       progress_ << "station read " << out.analysis->words_read << " of "
                 << out.analysis->visible_words << " sign words visible ("
-                << out.analysis->words_read_in_time << " within " << config_.words_in_time_s
-                << " s of capture) in "
+                << (in_time_known ? std::to_string(out.analysis->words_read_in_time) : "?")
+                << " in keyframes stored within " << config_.words_in_time_s << " s of capture) in "
                 << out.analysis->keyframes << " keyframes (" << out.analysis->analysed
                 << " analysed); " << out.analysis->place_matches
                 << " place matches between robots, " << out.analysis->place_matches_right

@@ -74,11 +74,15 @@ json analysis_json(const ExperimentMission& m) {
   if (!m.analysis)
     return m.analysis_error.empty() ? json(nullptr) : json{{"error", m.analysis_error}};
   const MissionAnalysis& a = *m.analysis;
-  return {{"keyframes", a.keyframes},           {"analysed", a.analysed},
-          {"visible_words", a.visible_words},   {"words_read", a.words_read},
-          {"words_read_in_time", a.words_read_in_time},
-          {"words_reported", a.words_reported}, {"junk", a.junk},
-          {"place_matches", a.place_matches},   {"place_matches_right", a.place_matches_right},
+  return {{"keyframes", a.keyframes},
+          {"analysed", a.analysed},
+          {"visible_words", a.visible_words},
+          {"words_read", a.words_read},
+          {"words_read_in_time", a.in_time_known ? json(a.words_read_in_time) : json(nullptr)},
+          {"words_reported", a.words_reported},
+          {"junk", a.junk},
+          {"place_matches", a.place_matches},
+          {"place_matches_right", a.place_matches_right},
           {"read_words", a.read_words}};
 }
 
@@ -88,7 +92,8 @@ const ExperimentMission* unlimited_reference(const ExperimentResult& result,
                                              const ExperimentMission& m) {
   const ExperimentMission* found = nullptr;
   for (const auto& r : result.missions)
-    if (r.analysis && r.profile.rate_kbit_s <= 0 && r.link == m.link && r.security == m.security &&
+    if (r.analysis && r.profile.rate_kbit_s <= 0 && r.profile.loss_percent <= 0 &&
+        r.profile.delay_ms <= 0 && r.link == m.link && r.security == m.security &&
         r.drones == m.drones && (!found || !r.link_adaptation))
       found = &r;
   return found;
@@ -272,9 +277,10 @@ std::string analysis_table(const ExperimentResult& result) {
     char words[32], places[32];
     std::snprintf(words, sizeof words, "%zu of %zu", a.words_read, a.visible_words);
     std::snprintf(places, sizeof places, "%zu (%zu right)", a.place_matches, a.place_matches_right);
-    std::snprintf(line, sizeof line, "%-32s %9zu %8zu %12s %8zu %13s %6zu %14s %11s\n",
-                  m.name.c_str(), a.keyframes, a.analysed, words, a.words_read_in_time, versus,
-                  a.junk, places, rate);
+    const std::string in_time = a.in_time_known ? std::to_string(a.words_read_in_time) : "-";
+    std::snprintf(line, sizeof line, "%-32s %9zu %8zu %12s %8s %13s %6zu %14s %11s\n",
+                  m.name.c_str(), a.keyframes, a.analysed, words, in_time.c_str(), versus, a.junk,
+                  places, rate);
     table += line;
   }
   return table;

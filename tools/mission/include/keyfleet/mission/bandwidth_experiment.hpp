@@ -3,8 +3,8 @@
 // links, each measured per robot from the station's database, written as results.json,
 // results.csv and (through tools/report/bandwidth_report.py) report.md with plots.
 #include <optional>
-#include <set>
 #include <ostream>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -39,14 +39,15 @@ struct RobotOutcome {
 // station's database: the sign words it read (eval::score_run_text) and its place matches
 // between robots (eval::score_run_places).
 struct MissionAnalysis {
-  std::size_t keyframes = 0;            // stored keyframes of the scenario's drones
-  std::size_t analysed = 0;             // of those, analysed by the station before it stopped
-  std::size_t visible_words = 0;        // distinct sign words fully visible in a stored keyframe
-  std::size_t words_read = 0;           // of those, read where they were visible
-  std::size_t words_read_in_time = 0;   // ... in keyframes stored within words_in_time_s
-  std::size_t words_reported = 0;       // every word the station stored
-  std::size_t junk = 0;                 // of those, no word of the street
-  std::size_t place_matches = 0;        // stored matches between two robots' keyframes
+  std::size_t keyframes = 0;           // stored keyframes of the scenario's drones
+  std::size_t analysed = 0;            // of those, analysed by the station before it stopped
+  std::size_t visible_words = 0;       // distinct sign words fully visible in a stored keyframe
+  std::size_t words_read = 0;          // of those, read where they were visible
+  std::size_t words_read_in_time = 0;  // ... in keyframes stored within words_in_time_s
+  bool in_time_known = true;       // false: a robot's stream start was not in its log (no latency)
+  std::size_t words_reported = 0;  // every word the station stored
+  std::size_t junk = 0;            // of those, no word of the street
+  std::size_t place_matches = 0;   // stored matches between two robots' keyframes
   std::size_t place_matches_right = 0;  // of those, within 5 m on the street
   std::vector<std::string> read_words;  // distinct, sorted
 };

@@ -50,7 +50,7 @@ struct BandwidthExperimentConfig {
   // netns: tcpdump on each drone's end of its link, classified by RTPS submessage (where the
   // bytes go: keyframe data, repairs, control, discovery, security, other topics).
   bool capture = true;
-  double bin_s = 1.0;                       // bandwidth-over-time bins (s)
+  double bin_s = 1.0;  // bandwidth-over-time bins (s)
   // A replayed scenario's words are also counted over the keyframes that reached the station
   // within this long of their capture ("read in time"; the link targets' latency bound).
   double words_in_time_s = 5.0;
