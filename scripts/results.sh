@@ -91,16 +91,19 @@ PY
   echo "from $out"
 }
 
+# Runs `keyfleet experiment bandwidth CONFIG` into runs/ and sets `out` (its folder, the newest
+# named PREFIX-*) and `took` (seconds).
+run_experiment() {
+  local config=$1 prefix=$2 start=$SECONDS
+  mkdir -p "$root/runs" "$pages"
+  "$build/bin/keyfleet" experiment bandwidth "$config" --run-root "$root/runs"
+  took=$((SECONDS - start))
+  out=$(ls -dt "$root/runs/$prefix"-* | head -1)
+}
+
 bandwidth_block() {
-  local runs="$root/runs"
-  mkdir -p "$runs"
-  local start=$SECONDS
-  "$build/bin/keyfleet" experiment bandwidth "$root/configs/experiment_bandwidth.yaml" \
-    --run-root "$runs"
-  local took=$((SECONDS - start))
-  local out
-  out=$(ls -dt "$runs"/bandwidth-* | head -1)
-  mkdir -p "$pages"
+  local out took
+  run_experiment "$root/configs/experiment_bandwidth.yaml" bandwidth
   for plot in savings latency bandwidth_netns bandwidth_flow_control; do
     [ -f "$out/$plot.png" ] && cp "$out/$plot.png" "$pages/$day-bandwidth-$plot.png"
   done
@@ -226,13 +229,8 @@ places_block() {
 
 # The weak-radio matrix (configs/experiment_bandwidth_radio.yaml, as root: network namespaces).
 radio_block() {
-  local runs="$root/runs"
-  mkdir -p "$runs" "$pages"
-  local start=$SECONDS
-  "$build/bin/keyfleet" experiment bandwidth "$root/configs/experiment_bandwidth_radio.yaml" --run-root "$runs"
-  local took=$((SECONDS - start))
-  local out
-  out=$(ls -dt "$runs"/radio-* | head -1)
+  local out took
+  run_experiment "$root/configs/experiment_bandwidth_radio.yaml" radio
   [ -f "$out/radio.png" ] && cp "$out/radio.png" "$pages/$day-radio-links.png"
   {
     echo "Measured $when on $machine (shared: figures of time are noisy) with"
@@ -257,14 +255,8 @@ radio_block() {
 
 # Words read per byte: the street replayed over weak links with adaptation off and on (as root).
 words_block() {
-  local runs="$root/runs"
-  mkdir -p "$runs" "$pages"
-  local start=$SECONDS
-  "$build/bin/keyfleet" experiment bandwidth "$root/configs/experiment_bandwidth_words.yaml" \
-    --run-root "$runs"
-  local took=$((SECONDS - start))
-  local out
-  out=$(ls -dt "$runs"/words_per_byte-* | head -1)
+  local out took
+  run_experiment "$root/configs/experiment_bandwidth_words.yaml" words_per_byte
   [ -f "$out/words.png" ] && cp "$out/words.png" "$pages/$day-words-per-byte.png"
   {
     echo "*Measured $when on $machine (shared: figures of time are noisy) with"
