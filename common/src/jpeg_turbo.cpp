@@ -40,8 +40,10 @@ struct Destination {  // where jpeg_mem_dest puts the encoded bytes (malloc'd by
 
 }  // namespace
 
-bool decode_jpeg_bgr(const std::uint8_t* data, std::size_t size, cv::Mat& out) {
+bool decode_jpeg_bgr(const std::uint8_t* data, std::size_t size, cv::Mat& out, int reduce,
+                     cv::Size* full_size) {
   if (size < 4 || data[0] != 0xFF || data[1] != 0xD8) return false;
+  if (reduce != 1 && reduce != 2 && reduce != 4 && reduce != 8) return false;
   jpeg_decompress_struct info;
   ErrorManager error;
   info.err = jpeg_std_error(&error.base);
@@ -62,6 +64,9 @@ bool decode_jpeg_bgr(const std::uint8_t* data, std::size_t size, cv::Mat& out) {
     return false;
   }
   info.out_color_space = JCS_EXT_BGR;
+  info.scale_num = 1;
+  info.scale_denom = static_cast<unsigned int>(reduce);
+  if (full_size) *full_size = cv::Size(int(info.image_width), int(info.image_height));
   jpeg_start_decompress(&info);
   out.create(int(info.output_height), int(info.output_width), CV_8UC3);
   while (info.output_scanline < info.output_height) {
@@ -106,7 +111,8 @@ bool encode_jpeg_bgr(const cv::Mat& image, int quality, std::vector<std::uint8_t
   return true;
 }
 
-cv::Mat read_image_bgr(const std::string& path, std::vector<std::uint8_t>& bytes) {
+cv::Mat read_image_bgr(const std::string& path, std::vector<std::uint8_t>& bytes, int reduce,
+                       cv::Size* full_size) {
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) return {};
   const std::streamoff size = in.tellg();
@@ -115,12 +121,14 @@ cv::Mat read_image_bgr(const std::string& path, std::vector<std::uint8_t>& bytes
   in.seekg(0);
   if (!in.read(reinterpret_cast<char*>(bytes.data()), size)) return {};
   cv::Mat image;
-  if (decode_jpeg_bgr(bytes.data(), bytes.size(), image)) return image;
+  if (decode_jpeg_bgr(bytes.data(), bytes.size(), image, reduce, full_size)) return image;
   try {
-    return cv::imdecode(bytes, cv::IMREAD_COLOR);
+    image = cv::imdecode(bytes, cv::IMREAD_COLOR);
   } catch (const cv::Exception&) {
-    return {};
+    image.release();
   }
+  if (full_size) *full_size = image.size();
+  return image;
 }
 
 }  // namespace keyfleet

@@ -39,7 +39,7 @@ int run(const ProcessOptions& options, const std::string& robot_id) {
         "read this robot's keyframes and acknowledge them in the station's name");
 
   ShutdownSignal shutdown;
-  auto source = agent::make_frame_source(config.source, logger);
+  auto source = agent::make_frame_source(config.source, logger, config.selector.decode_reduce);
   const std::filesystem::path outbox_path =
       std::filesystem::path(options.run_dir) / config.outbox.path;
   agent::Outbox outbox(outbox_path.string(), config.robot_id, config.outbox);

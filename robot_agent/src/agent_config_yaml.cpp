@@ -103,12 +103,23 @@ void visit(V& v, TextRegionsConfig& c) {
   v.field("min_line_overlap", c.min_line_overlap, between(0.0, 1.0));
 }
 
+// libjpeg's DCT scaling: 1/1, 1/2, 1/4, 1/8.
+Check<int> decode_reduce_check() {
+  return Check<int>(
+      [](const int& v) {
+        return v == 1 || v == 2 || v == 4 || v == 8 ? std::string()
+                                                    : std::string("must be 1, 2, 4 or 8");
+      },
+      "1, 2, 4 or 8");
+}
+
 template <class V>
 void visit(V& v, SelectorConfig& c) {
   v.field("strategy", c.strategy);
   v.field("density", c.density, between(1, 1000));
   v.field("max_window_frames", c.max_window_frames, between(1, 10000));
   v.field("max_scored", c.max_scored, between(0, 10000));
+  v.field("decode_reduce", c.decode_reduce, decode_reduce_check());
   v.section("trigger", c.trigger);
   v.section("quality", c.quality);
   v.section("semantic", c.semantic);

@@ -20,8 +20,8 @@ std::int64_t stream_time_ns(std::uint64_t index, double fps) {
 
 class ImageFolderSource final : public FrameSource {
  public:
-  ImageFolderSource(const SourceConfig& config, Logger logger)
-      : config_(config), logger_(std::move(logger)) {
+  ImageFolderSource(const SourceConfig& config, Logger logger, int decode_reduce)
+      : config_(config), logger_(std::move(logger)), decode_reduce_(decode_reduce) {
     static const std::set<std::string> kExtensions = {".png", ".jpg",  ".jpeg", ".bmp",
                                                       ".tif", ".tiff", ".ppm",  ".pgm"};
     std::error_code error;
@@ -46,12 +46,13 @@ class ImageFolderSource final : public FrameSource {
     while (position_ < files_.size()) {
       if (config_.max_frames && emitted_ >= config_.max_frames) return std::nullopt;
       const fs::path& file = files_[position_++];
-      cv::Mat image = read_image_bgr(file.string(), file_bytes_);
-      if (image.empty()) {
+      Frame frame;
+      if (!read_frame_image(file.string(), decode_reduce_, file_bytes_, frame)) {
         logger_->error("skipping unreadable image {}", file.string());
         continue;
       }
-      Frame frame{emitted_, stream_time_ns(emitted_, config_.fps), image, std::nullopt};
+      frame.index = emitted_;
+      frame.capture_time_ns = stream_time_ns(emitted_, config_.fps);
       ++emitted_;
       return frame;
     }
@@ -67,9 +68,10 @@ class ImageFolderSource final : public FrameSource {
   SourceConfig config_;
   Logger logger_;
   std::vector<fs::path> files_;
+  int decode_reduce_ = 1;
   std::size_t position_ = 0;
   std::uint64_t emitted_ = 0;
-  std::vector<std::uint8_t> file_bytes_;  // the current image's file, one buffer for all
+  std::vector<std::uint8_t> file_bytes_;  // the current image's file (whole decodes)
 };
 
 class VideoFileSource final : public FrameSource {
@@ -106,8 +108,9 @@ class VideoFileSource final : public FrameSource {
 
 }  // namespace
 
-std::unique_ptr<FrameSource> make_image_folder_source(const SourceConfig& config, Logger logger) {
-  return std::make_unique<ImageFolderSource>(config, std::move(logger));
+std::unique_ptr<FrameSource> make_image_folder_source(const SourceConfig& config, Logger logger,
+                                                      int decode_reduce) {
+  return std::make_unique<ImageFolderSource>(config, std::move(logger), decode_reduce);
 }
 
 std::unique_ptr<FrameSource> make_video_file_source(const SourceConfig& config, Logger logger) {

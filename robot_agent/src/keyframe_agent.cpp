@@ -24,20 +24,31 @@ Keyframe KeyframeAgent::make_keyframe(const Frame& frame, std::vector<std::uint8
   keyframe.frame_index = frame.index;
   keyframe.capture_time_ns = frame.capture_time_ns;
   keyframe.encoding = codec_->encoding();
-  keyframe.width = static_cast<std::uint32_t>(frame.image.cols);
-  keyframe.height = static_cast<std::uint32_t>(frame.image.rows);
+  const cv::Size size = frame_size(frame);
+  keyframe.width = static_cast<std::uint32_t>(size.width);
+  keyframe.height = static_cast<std::uint32_t>(size.height);
   keyframe.image = std::move(image);
   keyframe.camera_pose = frame.pose;
   return keyframe;
 }
 
-const std::vector<std::uint8_t>& KeyframeAgent::encoded(const Frame& frame) {
+cv::Mat KeyframeAgent::whole_image(const Frame& frame) const {
+  cv::Mat whole = full_image(frame);
+  if (whole.empty()) {
+    logger_->error("frame {}: its file no longer decodes whole; its keyframe goes at {}x{}",
+                   frame.index, frame.image.cols, frame.image.rows);
+    return frame.image;
+  }
+  return whole;
+}
+
+const std::vector<std::uint8_t>& KeyframeAgent::encoded(const Frame& frame, const cv::Mat& whole) {
   for (const auto& [index, bytes] : encodings_)
     if (index == frame.index) return bytes;
   const std::uint64_t reach = std::uint64_t(config_.selector.max_window_frames);
   while (!encodings_.empty() && encodings_.front().first + reach < frame.index)
     encodings_.pop_front();
-  encodings_.emplace_back(frame.index, codec_->encode(frame.image));
+  encodings_.emplace_back(frame.index, codec_->encode(whole));
   return encodings_.back().second;
 }
 
@@ -59,7 +70,7 @@ void KeyframeAgent::process(const Frame& frame, std::int64_t now_ns) {
   std::optional<std::uint64_t> frame_bytes;
   if (ledger_.should_sample_frame(frame.index) || step.vslam_keyframe) {
     auto scope = clock_.measure("baseline");
-    frame_bytes = link_.serialized_size(make_keyframe(frame, encoded(frame)));
+    frame_bytes = link_.serialized_size(make_keyframe(frame, encoded(frame, whole_image(frame))));
   }
   ledger_.record_frame(ledger_.should_sample_frame(frame.index) ? frame_bytes : std::nullopt);
   if (step.vslam_keyframe) ledger_.record_vslam_keyframe(frame_bytes);
@@ -76,9 +87,10 @@ void KeyframeAgent::publish_selection(const Selection& selection, std::int64_t n
   LinkAwareSender::Encoded at_level;
   {
     auto scope = clock_.measure("encode");
+    const cv::Mat whole = whole_image(selection.frame);
     at_level = sender_.encode(
-        selection.frame.image, selection.text_regions, now_ns,
-        [&]() -> const std::vector<std::uint8_t>& { return encoded(selection.frame); });
+        whole, selection.text_regions, now_ns,
+        [&]() -> const std::vector<std::uint8_t>& { return encoded(selection.frame, whole); });
     keyframe = make_keyframe(selection.frame, std::move(at_level.image));
     keyframe.width = at_level.width;
     keyframe.height = at_level.height;

@@ -172,7 +172,7 @@ Selection HierarchicalSelector::resolve(const Window& window) {
   {
     auto scope = clock_->measure("text_regions");
     chosen.text_regions =
-        text_regions(masks[best], batch[best]->frame.image.size(), config_.text_regions);
+        text_regions(masks[best], frame_size(batch[best]->frame), config_.text_regions);
   }
   return chosen;
 }

@@ -106,8 +106,10 @@ int OrbSlamTrigger::track(const OrbFeatures& current) {
 bool OrbSlamTrigger::is_keyframe(const Frame& frame) {
   cv::Mat grey;
   cv::cvtColor(frame.image, grey, cv::COLOR_BGR2GRAY);
-  if (params_.image_scale != 1.0)
-    cv::resize(grey, grey, {}, params_.image_scale, params_.image_scale, cv::INTER_AREA);
+  const cv::Size full = frame_size(frame);  // image_scale is of the frame, not of a reduced decode
+  const cv::Size size(std::max(1, int(std::lround(full.width * params_.image_scale))),
+                      std::max(1, int(std::lround(full.height * params_.image_scale))));
+  if (size != grey.size()) cv::resize(grey, grey, size, 0, 0, cv::INTER_AREA);
   OrbFeatures current = extractor_.extract(grey);
   if (decision_.started()) {
     last_inliers_ = track(current);

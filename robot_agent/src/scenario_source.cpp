@@ -14,8 +14,8 @@ namespace fs = std::filesystem;
 
 class ScenarioSource final : public FrameSource {
  public:
-  ScenarioSource(const SourceConfig& config, Logger logger)
-      : config_(config), logger_(std::move(logger)) {
+  ScenarioSource(const SourceConfig& config, Logger logger, int decode_reduce)
+      : config_(config), logger_(std::move(logger)), decode_reduce_(decode_reduce) {
     scenario::Scenario scenario;
     try {
       scenario = scenario::read_scenario(config.path);
@@ -43,12 +43,15 @@ class ScenarioSource final : public FrameSource {
     while (position_ < truth_.size()) {
       if (config_.max_frames && position_ >= config_.max_frames) return std::nullopt;
       const auto& truth = truth_[position_++];
-      cv::Mat image = read_image_bgr((folder_ / truth.image).string(), file_bytes_);
-      if (image.empty()) {
+      Frame frame;
+      if (!read_frame_image((folder_ / truth.image).string(), decode_reduce_, file_bytes_, frame)) {
         logger_->error("skipping unreadable scenario frame {}", (folder_ / truth.image).string());
         continue;
       }
-      return Frame{truth.index, truth.timestamp_ns, image, truth.camera_to_world};
+      frame.index = truth.index;
+      frame.capture_time_ns = truth.timestamp_ns;
+      frame.pose = truth.camera_to_world;
+      return frame;
     }
     return std::nullopt;
   }
@@ -62,6 +65,7 @@ class ScenarioSource final : public FrameSource {
  private:
   SourceConfig config_;
   Logger logger_;
+  int decode_reduce_ = 1;
   fs::path folder_;
   double fps_ = 30;
   std::vector<scenario::FrameTruth> truth_;
@@ -71,8 +75,9 @@ class ScenarioSource final : public FrameSource {
 
 }  // namespace
 
-std::unique_ptr<FrameSource> make_scenario_source(const SourceConfig& config, Logger logger) {
-  return std::make_unique<ScenarioSource>(config, std::move(logger));
+std::unique_ptr<FrameSource> make_scenario_source(const SourceConfig& config, Logger logger,
+                                                  int decode_reduce) {
+  return std::make_unique<ScenarioSource>(config, std::move(logger), decode_reduce);
 }
 
 }  // namespace keyfleet::agent

@@ -208,7 +208,9 @@ INSTANTIATE_TEST_SUITE_P(
         BadValueCase{"KltWindowTooSmall", "selector:\n  trigger:\n    klt:\n      window_px: 3\n",
                      "agent.yaml:4: selector.trigger.klt.window_px", "must be between 5 and 101"},
         BadValueCase{"UnknownTriggerKind", "selector:\n  trigger:\n    kind: lidar\n",
-                     "agent.yaml:3: selector.trigger.kind", "orbslam|klt|stride|list"}),
+                     "agent.yaml:3: selector.trigger.kind", "orbslam|klt|stride|list"},
+        BadValueCase{"DecodeReduceNotADctScale", "selector:\n  decode_reduce: 3\n",
+                     "agent.yaml:2: selector.decode_reduce", "must be 1, 2, 4 or 8"}),
     [](const ::testing::TestParamInfo<BadValueCase>& info) { return info.param.name; });
 
 TEST(ConfigBadValue, StationDomainIdOutOfRangeNamesKey) {
@@ -366,6 +368,7 @@ TEST(ConfigRoundTrip, AgentToYamlParsesBackToTheSameValues) {
   c.source.seed = 18446744073709551557ULL;  // needs all 64 bits
   c.selector.trigger.stride = 7;
   c.selector.semantic.bfloat16 = false;
+  c.selector.decode_reduce = 4;
   c.codec.jpeg_quality = 42;
   c.ledger.baseline_sample_every = 3;
   c.outbox.path = "box.sqlite";
@@ -395,6 +398,7 @@ TEST(ConfigRoundTrip, AgentToYamlParsesBackToTheSameValues) {
   EXPECT_EQ(back.source.seed, c.source.seed);
   EXPECT_EQ(back.selector.trigger.stride, c.selector.trigger.stride);
   EXPECT_EQ(back.selector.semantic.bfloat16, c.selector.semantic.bfloat16);
+  EXPECT_EQ(back.selector.decode_reduce, 4);
   EXPECT_EQ(back.codec.jpeg_quality, c.codec.jpeg_quality);
   EXPECT_EQ(back.ledger.baseline_sample_every, c.ledger.baseline_sample_every);
   EXPECT_EQ(back.outbox.path, c.outbox.path);

@@ -65,6 +65,32 @@ TEST(ImageFolderSource, UnreadableImageIsSkippedAndTheRestStreams) {
   EXPECT_EQ(frames[2].index, 2u);  // indices stay contiguous over the skipped file
 }
 
+// selector.decode_reduce: JPEGs at half size for the selection, every pixel back on demand;
+// other formats whole.
+TEST(ImageFolderSource, DecodesJpegsReducedAndGivesTheWholeFrameBackOnDemand) {
+  test::TempDir dir;
+  const cv::Mat scene = test::make_smooth_image(320, 240);
+  ASSERT_TRUE(cv::imwrite((dir.path() / "a.jpg").string(), scene));
+  ASSERT_TRUE(cv::imwrite((dir.path() / "b.png").string(), scene));
+  SourceConfig config;
+  config.kind = SourceConfig::Kind::kImageFolder;
+  config.path = dir.path().string();
+  auto source = make_frame_source(config, null_logger(), 2);
+  const auto frames = read_all(*source);
+  ASSERT_EQ(frames.size(), 2u);
+  EXPECT_EQ(frames[0].image.size(), cv::Size(160, 120));
+  EXPECT_EQ(frame_size(frames[0]), cv::Size(320, 240));
+  ASSERT_TRUE(frames[0].encoded);
+  const cv::Mat whole = full_image(frames[0]);
+  const cv::Mat read = cv::imread((dir.path() / "a.jpg").string(), cv::IMREAD_COLOR);
+  ASSERT_EQ(whole.size(), read.size());
+  EXPECT_EQ(cv::norm(whole, read, cv::NORM_INF), 0.0);
+  EXPECT_EQ(frames[1].image.size(), cv::Size(320, 240));  // the PNG: whole, nothing kept
+  EXPECT_EQ(frame_size(frames[1]), cv::Size(320, 240));
+  EXPECT_FALSE(frames[1].encoded);
+  EXPECT_EQ(full_image(frames[1]).data, frames[1].image.data);
+}
+
 TEST(ImageFolderSource, MissingOrEmptyFolderIsAStartupErrorNamingIt) {
   SourceConfig config;
   config.kind = SourceConfig::Kind::kImageFolder;

@@ -56,6 +56,35 @@ TEST(JpegTurbo, DecodesTheSamePixelsAsOpenCV) {
   expect_decodes_as_opencv(opencv_jpeg(grey, {}));  // one channel, read as BGR
 }
 
+// OpenCV's IMREAD_REDUCED_COLOR_N asks libjpeg for the same DCT scaling: the same pixels.
+TEST(JpegTurbo, DecodesAtAHalfQuarterAndEighthAsOpenCVsReducedRead) {
+  const cv::Mat scene = make_scene(640, 480);
+  const auto bytes = opencv_jpeg(scene, {cv::IMWRITE_JPEG_QUALITY, 92});
+  const std::pair<int, int> flags[] = {{2, cv::IMREAD_REDUCED_COLOR_2},
+                                       {4, cv::IMREAD_REDUCED_COLOR_4},
+                                       {8, cv::IMREAD_REDUCED_COLOR_8}};
+  for (const auto& [reduce, flag] : flags) {
+    cv::Mat ours;
+    cv::Size full;
+    ASSERT_TRUE(decode_jpeg_bgr(bytes.data(), bytes.size(), ours, reduce, &full)) << reduce;
+    EXPECT_EQ(full, cv::Size(640, 480));
+    EXPECT_EQ(ours.size(), cv::Size(640 / reduce, 480 / reduce));
+    const cv::Mat theirs = cv::imdecode(bytes, flag);
+    ASSERT_EQ(ours.size(), theirs.size());
+    EXPECT_EQ(cv::norm(ours, theirs, cv::NORM_INF), 0) << reduce;
+    // And close to an area resize of the whole decode: the same picture, not the same pixels.
+    cv::Mat area;
+    cv::resize(cv::imdecode(bytes, cv::IMREAD_COLOR), area, ours.size(), 0, 0, cv::INTER_AREA);
+    EXPECT_LT(cv::norm(ours, area, cv::NORM_L1) / double(area.total() * 3), 4.0) << reduce;
+  }
+  cv::Mat odd;  // each side rounded up
+  const auto odd_bytes = opencv_jpeg(make_scene(333, 111), {});
+  ASSERT_TRUE(decode_jpeg_bgr(odd_bytes.data(), odd_bytes.size(), odd, 2));
+  EXPECT_EQ(odd.size(), cv::Size(167, 56));
+  EXPECT_FALSE(decode_jpeg_bgr(bytes.data(), bytes.size(), odd, 3));  // not a DCT scale
+  EXPECT_FALSE(decode_jpeg_bgr(bytes.data(), bytes.size(), odd, 0));
+}
+
 TEST(JpegTurbo, ReusesTheBufferOfAnUnsharedImageOfTheSameSize) {
   const auto bytes = opencv_jpeg(make_scene(320, 240), {});
   cv::Mat image;
@@ -116,6 +145,14 @@ TEST(JpegTurbo, ReadsFilesAsImreadDoes) {
     ASSERT_EQ(ours.size(), theirs.size()) << name;
     EXPECT_EQ(cv::norm(ours, theirs, cv::NORM_INF), 0) << name;
   }
+  // Reduced: a JPEG at half size with its own size reported, a PNG whole.
+  cv::Size full;
+  EXPECT_EQ(read_image_bgr((folder / "frame.jpg").string(), buffer, 2, &full).size(),
+            cv::Size(80, 60));
+  EXPECT_EQ(full, cv::Size(160, 120));
+  EXPECT_EQ(read_image_bgr((folder / "frame.png").string(), buffer, 2, &full).size(),
+            cv::Size(160, 120));
+  EXPECT_EQ(full, cv::Size(160, 120));
   EXPECT_TRUE(read_image_bgr((folder / "missing.jpg").string(), buffer).empty());
   std::ofstream((folder / "bad.jpg").string()) << "not an image";
   EXPECT_TRUE(read_image_bgr((folder / "bad.jpg").string(), buffer).empty());

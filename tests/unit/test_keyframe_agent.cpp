@@ -2,6 +2,8 @@
 // outbox and JPEG codec hold and encode it, a fake link refuses writes and delivers acks.
 #include <gtest/gtest.h>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include <algorithm>
 
 #include <chrono>
@@ -189,6 +191,32 @@ TEST_F(KeyframeAgentTest, SelectedFrameIsStoredInTheOutboxAndPublishedOnce) {
   ASSERT_EQ(stored.size(), 1u);
   EXPECT_EQ(stored[0].sequence_number, 0u);
   EXPECT_EQ(stored[0].image, k.image);
+}
+
+// selector.decode_reduce: the selection saw a half-size decode; the keyframe sent and the
+// baseline measured are the whole frame, decoded again from the source's file.
+TEST_F(KeyframeAgentTest, AReducedFrameIsSentAndMeasuredWhole) {
+  start({{1}, {1}, {}});
+  const cv::Mat whole = keyfleet::test::make_noise_image(64, 48, 9);
+  std::vector<std::uint8_t> file;
+  ASSERT_TRUE(cv::imencode(".jpg", whole, file, {cv::IMWRITE_JPEG_QUALITY, 95}));
+  const cv::Mat decoded = cv::imdecode(file, cv::IMREAD_COLOR);
+  for (std::uint64_t i = 0; i < 2; ++i) {
+    Frame frame = make_frame(i);
+    frame.image = cv::imdecode(file, cv::IMREAD_REDUCED_COLOR_2);
+    frame.full_size = whole.size();
+    frame.encoded = std::make_shared<const std::vector<std::uint8_t>>(file);
+    agent_->process(frame, kStart);
+  }
+  ASSERT_EQ(link_.keyframes.size(), 1u);
+  const Keyframe& k = link_.keyframes[0];
+  EXPECT_EQ(k.width, 64u);
+  EXPECT_EQ(k.height, 48u);
+  EXPECT_EQ(k.image, JpegCodec(kJpegQuality).encode(decoded));
+  // Baselines of both frames: a whole frame's bytes each.
+  const std::uint64_t whole_bytes = k.image.size() + FakeAgentLink::kKeyframeOverhead;
+  EXPECT_EQ(stats().stream_all_bytes, 2 * whole_bytes);
+  EXPECT_EQ(stats().vslam_keyframe_bytes, whole_bytes);
 }
 
 TEST_F(KeyframeAgentTest, SequenceNumbersCountUp) {

@@ -93,19 +93,24 @@ class GeneratedFlight : public ::testing::Test {
     const auto s = scenario::read_scenario(dir_->file("street"));
     const fs::path drone = dir_->path() / "street" / s.drones.at(0).folder;
     frames_ = new std::vector<Frame>();
-    for (const auto& truth : scenario::read_frame_truth(drone.string()))
-      frames_->push_back(
-          make_frame(truth.index, cv::imread((drone / truth.image).string(), cv::IMREAD_COLOR)));
+    paths_ = new std::vector<std::string>();
+    for (const auto& truth : scenario::read_frame_truth(drone.string())) {
+      paths_->push_back((drone / truth.image).string());
+      frames_->push_back(make_frame(truth.index, cv::imread(paths_->back(), cv::IMREAD_COLOR)));
+    }
   }
   static void TearDownTestSuite() {
     delete frames_;
+    delete paths_;
     delete dir_;
   }
   static test::TempDir* dir_;
   static std::vector<Frame>* frames_;
+  static std::vector<std::string>* paths_;  // the frames' files
 };
 test::TempDir* GeneratedFlight::dir_ = nullptr;
 std::vector<Frame>* GeneratedFlight::frames_ = nullptr;
+std::vector<std::string>* GeneratedFlight::paths_ = nullptr;
 
 // --- OrbSlamTrigger ----------------------------------------------------------------------------
 
@@ -304,6 +309,34 @@ TEST_F(GeneratedFlight, KltTriggerAgreesWithTheOrbTriggerOnAGeneratedFlight) {
         break;
       }
   EXPECT_GE(3 * near, 2 * by_klt.size()) << both;
+}
+
+// selector.decode_reduce: frames decoded at half size are tracked at the same size as whole
+// ones resized (image_scale is of the frame), so the trigger keeps its keyframes: the same rate
+// (within 15 %), most of them (three in four) within 2 frames of a whole-frame one.
+TEST_F(GeneratedFlight, KltTriggerKeepsItsKeyframesOnFramesDecodedAtHalfSize) {
+  std::vector<Frame> reduced;
+  std::vector<std::uint8_t> buffer;
+  for (std::size_t i = 0; i < paths_->size(); ++i) {
+    Frame frame = (*frames_)[i];
+    ASSERT_TRUE(read_frame_image((*paths_)[i], 2, buffer, frame));
+    ASSERT_EQ(frame.image.cols * 2, frame_size(frame).width) << (*paths_)[i] << " is a JPEG";
+    reduced.push_back(frame);
+  }
+  KltSlamTrigger on_whole(default_klt_params()), on_reduced(default_klt_params());
+  const auto by_whole = fired_on(on_whole, *frames_), by_reduced = fired_on(on_reduced, reduced);
+  const std::string both = "whole " + join(by_whole) + " | reduced " + join(by_reduced);
+  const double ratio = double(by_reduced.size()) / double(by_whole.size());
+  EXPECT_GT(ratio, 0.85) << both;
+  EXPECT_LT(ratio, 1.15) << both;
+  std::size_t near = 0;
+  for (const auto r : by_reduced)
+    for (const auto w : by_whole)
+      if (r + 2 >= w && w + 2 >= r) {
+        ++near;
+        break;
+      }
+  EXPECT_GE(4 * near, 3 * by_reduced.size()) << both;
 }
 
 TEST(KltSlamTrigger, FiresRepeatedlyOnARealHandHeldVideo) {

@@ -62,8 +62,8 @@ void run_trigger_comparison(const TriggerOptions& o) {
   };
   if (!o.scenario.empty()) {
     for (const auto& drone : o.drones) {
-      const auto loaded = eval::load_drone_frames(o.scenario, drone);
-      compare(drone, loaded.frames, loaded.info.fps);
+      const auto loaded = eval::load_drone_frames(o.scenario, drone, agent.selector.decode_reduce);
+      compare(drone, loaded.for_selection(), loaded.info.fps);
     }
   }
   double fps = 30;

@@ -211,7 +211,7 @@ struct Context {
 DroneRun evaluate_drone(const Context& ctx, const std::string& drone, EvalResults& results) {
   const EvalConfig& config = ctx.config;
   ctx.logger->info("{}: decoding frames", drone);
-  const DroneFrames d = load_drone_frames(ctx.scenario_dir, drone);
+  const DroneFrames d = load_drone_frames(ctx.scenario_dir, drone, config.selector.decode_reduce);
   DroneRun run;
   run.info = d.info;
   for (const auto& t : d.truth) run.positions.push_back(t.street_position_m);
@@ -221,7 +221,7 @@ DroneRun evaluate_drone(const Context& ctx, const std::string& drone, EvalResult
   cost.frames += d.frames.size();
 
   double trigger_ms = 0;
-  const auto vslam = run_vslam_trigger(d.frames, config.selector, d.info.fps, &trigger_ms);
+  const auto vslam = run_vslam_trigger(d.for_selection(), config.selector, d.info.fps, &trigger_ms);
   cost.trigger_ms_per_frame += trigger_ms / double(ctx.drones);
   ctx.logger->info("{}: {} V-SLAM keyframes ({:.1f} ms/frame)", drone, vslam.size(), trigger_ms);
 
@@ -243,7 +243,7 @@ DroneRun evaluate_drone(const Context& ctx, const std::string& drone, EvalResult
       std::vector<std::uint64_t> frames;
       std::vector<std::size_t> regions;
       for (const auto& sel :
-           select_on_keyframes(d.frames, kept, selector, segmenter.get(), &clock)) {
+           select_on_keyframes(d.for_selection(), kept, selector, segmenter.get(), &clock)) {
         frames.push_back(sel.frame.index);
         regions.push_back(region_id(run.regions, sel.text_regions));
       }

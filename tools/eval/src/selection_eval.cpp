@@ -58,7 +58,8 @@ SelectorConfig::Strategy strategy_from_string(const std::string& name) {
                      ")");
 }
 
-DroneFrames load_drone_frames(const std::string& scenario_dir, const std::string& drone) {
+DroneFrames load_drone_frames(const std::string& scenario_dir, const std::string& drone,
+                              int decode_reduce) {
   const scenario::Scenario scenario = scenario::read_scenario(scenario_dir);
   const auto info = std::find_if(scenario.drones.begin(), scenario.drones.end(),
                                  [&](const auto& d) { return d.robot_id == drone; });
@@ -73,6 +74,13 @@ DroneFrames load_drone_frames(const std::string& scenario_dir, const std::string
     cv::Mat image = cv::imread(path, cv::IMREAD_COLOR);
     if (image.empty()) throw StartupError(path + ": cannot read the frame");
     out.frames.push_back({t.index, t.timestamp_ns, std::move(image), t.camera_to_world});
+    if (decode_reduce > 1) {
+      agent::Frame reduced{t.index, t.timestamp_ns, {}, t.camera_to_world};
+      std::vector<std::uint8_t> unused;
+      if (!agent::read_frame_image(path, decode_reduce, unused, reduced))
+        throw StartupError(path + ": cannot read the frame");
+      out.reduced.push_back(std::move(reduced));
+    }
   }
   return out;
 }
@@ -144,9 +152,9 @@ std::vector<cv::Mat> CachingSegmenter::segment(const std::vector<cv::Mat>& bgr_f
 SelectionEvaluation evaluate_selection(const std::string& scenario_dir, const std::string& drone,
                                        const SelectorConfig& base,
                                        const std::vector<SelectorConfig::Strategy>& strategies) {
-  const DroneFrames drone_frames = load_drone_frames(scenario_dir, drone);
+  const DroneFrames drone_frames = load_drone_frames(scenario_dir, drone, base.decode_reduce);
   const auto& truth = drone_frames.truth;
-  const auto& frames = drone_frames.frames;
+  const auto& frames = drone_frames.for_selection();
 
   SelectionEvaluation evaluation;
   evaluation.drone = drone;

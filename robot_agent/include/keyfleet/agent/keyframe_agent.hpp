@@ -48,8 +48,12 @@ class KeyframeAgent {
   void publish_selection(const Selection& selection, std::int64_t now_ns);
   void observe_link(std::int64_t now_ns);
   Keyframe make_keyframe(const Frame& frame, std::vector<std::uint8_t> image) const;
-  // The frame's JPEG: encoded once, whether for a baseline measurement or for publication.
-  const std::vector<std::uint8_t>& encoded(const Frame& frame);
+  // The frame's JPEG: encoded once, whether for a baseline measurement or for publication;
+  // `whole` is the frame's whole image (whole_image), only read when not encoded yet.
+  const std::vector<std::uint8_t>& encoded(const Frame& frame, const cv::Mat& whole);
+  // Every pixel of the frame (decoded again where the source decoded less); the reduced image,
+  // logged as an error, in the unexpected case that this decode fails.
+  cv::Mat whole_image(const Frame& frame) const;
 
   AgentConfig config_;
   std::unique_ptr<KeyframeSelector> selector_;

@@ -49,10 +49,18 @@ SelectorConfig::Strategy strategy_from_string(const std::string& name);
 struct DroneFrames {
   scenario::DroneInfo info;
   std::vector<scenario::FrameTruth> truth;  // truth[i] belongs to frames[i]
-  std::vector<agent::Frame> frames;
+  std::vector<agent::Frame> frames;         // whole: what the station reads and describes
+  // With decode_reduce > 1, the frames as the agent's selection sees them (decoded at
+  // 1/decode_reduce, agent::Frame::full_size set); empty otherwise.
+  std::vector<agent::Frame> reduced;
+  const std::vector<agent::Frame>& for_selection() const {
+    return reduced.empty() ? frames : reduced;
+  }
 };
-// Throws StartupError for an unknown drone or an unreadable frame.
-DroneFrames load_drone_frames(const std::string& scenario_dir, const std::string& drone);
+// Throws StartupError for an unknown drone or an unreadable frame. `decode_reduce` is the
+// agent's selector.decode_reduce.
+DroneFrames load_drone_frames(const std::string& scenario_dir, const std::string& drone,
+                              int decode_reduce = 1);
 
 // The V-SLAM keyframes (frame indices, ascending) the trigger of `base` takes on the frames.
 std::vector<std::uint64_t> run_vslam_trigger(const std::vector<agent::Frame>& frames,
