@@ -289,6 +289,27 @@ void BM_DecodeFrame(benchmark::State& state) {
 }
 BENCHMARK(BM_DecodeFrame)->ArgName("turbo")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
+// selector.decode_reduce: decode_jpeg_bgr at 1/N (libjpeg's DCT scaling) of the same frames. The
+// entropy decoding is the same work at every N; only the inverse DCT, upsampling and colour
+// conversion shrink.
+void BM_DecodeFrameReduced(benchmark::State& state) {
+  const auto& jpegs = flight_jpegs();
+  const int reduce = int(state.range(0));
+  std::size_t i = 0;
+  for (auto _ : state) {
+    const auto& bytes = jpegs[i++ % jpegs.size()];
+    cv::Mat image;
+    keyfleet::decode_jpeg_bgr(bytes.data(), bytes.size(), image, reduce);
+    benchmark::DoNotOptimize(image.data);
+  }
+}
+BENCHMARK(BM_DecodeFrameReduced)
+    ->ArgName("reduce")
+    ->Arg(1)
+    ->Arg(2)
+    ->Arg(4)
+    ->Unit(benchmark::kMillisecond);
+
 // The whole selection, amortised per frame over the flight: strategy quality, or full with the
 // shipped MiniNet at its configured input size (one thread); trigger 0 = a stride (no cost, the
 // others' cost is the difference), 1 = orbslam, 2 = klt (on the quality stage's grey image).

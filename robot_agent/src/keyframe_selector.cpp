@@ -10,6 +10,7 @@
 
 #include "keyfleet/agent/image_quality.hpp"
 #include "keyfleet/agent/klt_trigger.hpp"
+#include "keyfleet/common/error.hpp"
 
 namespace keyfleet::agent {
 
@@ -52,8 +53,27 @@ HierarchicalSelector::Scored HierarchicalSelector::score(const Frame& frame) {
   return s;
 }
 
+void HierarchicalSelector::check_reduction(const Frame& frame) {
+  if (reduction_checked_ || frame.full_size.empty() || frame.image.size() == frame.full_size)
+    return;
+  reduction_checked_ = true;
+  int needed = 0;
+  if (config_.strategy != SelectorConfig::Strategy::kVslam)
+    needed = config_.quality.sharpness_width;
+  if (segmenter_) needed = std::max(needed, segmenter_->info().input_size.width);
+  if (frame.image.cols < needed)
+    throw StartupError("selector.decode_reduce: " + std::to_string(config_.decode_reduce) +
+                       " decodes the " + std::to_string(frame.full_size.width) + "x" +
+                       std::to_string(frame.full_size.height) + " frames at " +
+                       std::to_string(frame.image.cols) + "x" + std::to_string(frame.image.rows) +
+                       ", narrower than the " + std::to_string(needed) +
+                       " pixels the selection works at (quality.sharpness_width, the semantic "
+                       "model's input): lower it");
+}
+
 SelectorStep HierarchicalSelector::push(const Frame& frame) {
   SelectorStep step;
+  check_reduction(frame);
   buffer_.push_back(score(frame));
   {
     auto scope = clock_->measure("trigger");

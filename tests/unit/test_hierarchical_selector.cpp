@@ -21,6 +21,7 @@
 #include "keyfleet/agent/keyframe_selector.hpp"
 #include "keyfleet/agent/keyframe_trigger.hpp"
 #include "keyfleet/common/config_error.hpp"
+#include "keyfleet/common/error.hpp"
 #include "keyfleet/vision/text_segmenter.hpp"
 #include "test_support.hpp"
 
@@ -286,6 +287,38 @@ TEST(HierarchicalSelector, FullPicksTheFrameWhoseTextIsCentred) {
     EXPECT_GE(index, 20u);
     EXPECT_LE(index, 35u);
   }
+}
+
+// selector.decode_reduce: frames decoded at half size are selected the same way, and their text
+// regions are given in the whole frame's pixels (what the keyframe sent is).
+TEST(HierarchicalSelector, RegionsOfAReducedFrameAreInTheWholeFramesPixels) {
+  const std::uint64_t centred_text = 23;
+  auto selector =
+      selector_with(config_for(Strategy::kFull), 30, {{centred_text, centred_text_mask()}});
+  auto frames = make_frames(36, looks().blurred, {{centred_text, looks().soft}});
+  for (auto& frame : frames) frame.full_size = {2 * frame.image.cols, 2 * frame.image.rows};
+  const Stream run = push_all(selector, frames);
+  ASSERT_EQ(run.emitted.size(), 2u) << describe(run.emitted);
+  EXPECT_EQ(run.emitted[1].selection.frame.index, centred_text);
+  EXPECT_EQ(run.emitted[1].selection.text_regions, (std::vector<TextRegion>{{240, 180, 160, 120}}));
+}
+
+TEST(HierarchicalSelector, FramesDecodedNarrowerThanTheQualityStageWorksAtAreRefused) {
+  auto selector = selector_with(config_for(Strategy::kQuality), 30);
+  auto frames = make_frames(2, looks().sharp, {});
+  frames[0].full_size = {2 * frames[0].image.cols, 2 * frames[0].image.rows};
+  SelectorConfig config = config_for(Strategy::kQuality);
+  config.quality.sharpness_width = frames[0].image.cols + 1;
+  config.decode_reduce = 2;
+  auto narrow = selector_with(config, 30);
+  try {
+    narrow.push(frames[0]);
+    FAIL() << "expected StartupError";
+  } catch (const StartupError& e) {
+    EXPECT_NE(std::string(e.what()).find("selector.decode_reduce: 2"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_NO_THROW(selector.push(frames[0]));  // 320 wide: what the sharpness works at
 }
 
 TEST(HierarchicalSelector, FullFallsBackOnQualityWhenNoTextIsSeen) {

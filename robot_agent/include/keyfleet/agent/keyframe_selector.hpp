@@ -71,6 +71,9 @@ class HierarchicalSelector final : public KeyframeSelector {
   };
   Selection resolve(const Window& window);
   void trim_buffer();
+  // Refuses (StartupError) frames decoded narrower than the quality and semantic stages work
+  // at (selector.decode_reduce too large for the frame); checked on the first reduced frame.
+  void check_reduction(const Frame& frame);
 
   SelectorConfig config_;
   std::unique_ptr<KeyframeTrigger> trigger_;
@@ -81,6 +84,7 @@ class HierarchicalSelector final : public KeyframeSelector {
   std::optional<Window> pending_;
   std::optional<std::uint64_t> last_selected_;
   std::uint64_t vslam_keyframes_ = 0;
+  bool reduction_checked_ = false;
   QualityImages images_;  // the per-frame scoring's buffers
 };
 
