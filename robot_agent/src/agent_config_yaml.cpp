@@ -118,7 +118,6 @@ void visit(V& v, SelectorConfig& c) {
   v.field("strategy", c.strategy);
   v.field("density", c.density, between(1, 1000));
   v.field("max_window_frames", c.max_window_frames, between(1, 10000));
-  v.field("score_one_in", c.score_one_in, between(1, 1000));
   v.field("max_scored", c.max_scored, between(0, 10000));
   v.field("decode_reduce", c.decode_reduce, decode_reduce_check());
   v.section("trigger", c.trigger);

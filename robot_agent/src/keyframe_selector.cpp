@@ -166,7 +166,7 @@ Selection HierarchicalSelector::resolve(const Window& window) {
     return choose(*candidates.front(), quality(candidates.front()), 0);
 
   // Semantic: the text score of a few frames, as one batch.
-  std::size_t q = std::max<std::size_t>(1, in_window.size() / std::size_t(config_.score_one_in));
+  std::size_t q = std::max<std::size_t>(1, in_window.size() / 3);
   if (config_.max_scored > 0) q = std::min(q, std::size_t(config_.max_scored));
   std::vector<const Scored*> batch;
   if (config_.strategy == SelectorConfig::Strategy::kFull) {

@@ -451,11 +451,9 @@ TEST(HierarchicalSelector, KeyframeBeforeTheWindowClosesDecidesItWithoutRepeatin
 
 // The segmenter's batch for keyframe 30's window (20..35, 16 frames, a third is 5) when every
 // frame passes the sharpness gate: frame 27 is the sharpest, 23 the next, the rest soft.
-std::vector<std::uint64_t> window_batch(Strategy strategy, int max_scored, int score_one_in = 3) {
+std::vector<std::uint64_t> window_batch(Strategy strategy, int max_scored) {
   auto log = std::make_shared<SegmenterLog>();
-  SelectorConfig config = config_for(strategy, 1, max_scored);
-  config.score_one_in = score_one_in;
-  auto selector = selector_with(config, 30, {}, log);
+  auto selector = selector_with(config_for(strategy, 1, max_scored), 30, {}, log);
   const auto frames = make_frames(36, looks().soft, {{27, looks().sharp}, {23, looks().sharp}});
   const Stream run = push_all(selector, frames);
   EXPECT_EQ(run.emitted.size(), 2u) << describe(run.emitted);
@@ -492,22 +490,6 @@ TEST(HierarchicalSelector, MaxScoredBoundsTheSegmentersBatch) {
   ASSERT_EQ(spread.size(), 2u);
   EXPECT_EQ(spread, (std::vector<std::uint64_t>{20, 28}));
   EXPECT_EQ(window_batch(Strategy::kSemantic, 1), (std::vector<std::uint64_t>{20}));
-}
-
-// score_one_in: a share of the window instead of the third; still at least one frame, and the
-// head of the third's batch (full: best quality first).
-TEST(HierarchicalSelector, ScoreOneInSetsTheShareOfTheWindowScored) {
-  EXPECT_EQ(SelectorConfig().score_one_in, 3);
-  for (Strategy strategy : {Strategy::kFull, Strategy::kSemantic}) {
-    EXPECT_EQ(window_batch(strategy, 0, 6).size(), 16u / 6) << to_string(strategy);
-    EXPECT_EQ(window_batch(strategy, 0, 100).size(), 1u) << to_string(strategy);
-    EXPECT_EQ(window_batch(strategy, 1, 6).size(), 1u) << "max_scored still bounds it";
-  }
-  const auto sixth = window_batch(Strategy::kFull, 0, 6), third = window_batch(Strategy::kFull, 0);
-  EXPECT_TRUE(std::equal(sixth.begin(), sixth.end(), third.begin()));
-  EXPECT_EQ(
-      parse_agent_config("selector:\n  score_one_in: 6\n", "agent.yaml").selector.score_one_in, 6);
-  EXPECT_THROW(parse_agent_config("selector:\n  score_one_in: 0\n", "agent.yaml"), ConfigError);
 }
 
 TEST(HierarchicalSelector, MaxScoredIsReadFromYamlAndChecked) {

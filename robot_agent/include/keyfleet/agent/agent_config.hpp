@@ -94,11 +94,8 @@ struct SelectorConfig {
   Strategy strategy = Strategy::kFull;
   int density = 1;             // one keyframe per `density` V-SLAM keyframes
   int max_window_frames = 90;  // frames buffered at most (windows are clipped to them)
-  // The segmenter scores one frame in `score_one_in` of each window (`semantic`, `full`; at
-  // least one a window): 3, Alonso et al.'s third. Its cost per frame is about one pass over
-  // score_one_in at any density, where max_scored's falls as windows grow.
-  int score_one_in = 3;
-  // Frames given to the segmenter per window at most; 0 = no bound beyond score_one_in.
+  // Frames given to the segmenter per window at most (`semantic`, `full`); 0 = a third of the
+  // window (Alonso et al.). The segmenter's cost grows with each frame scored.
   int max_scored = 0;
   // Frames read from JPEG files (image folders, scenarios) are decoded at 1/decode_reduce of
   // their size (1, 2, 4 or 8: libjpeg's DCT scaling, a fraction of a whole decode's work) for
