@@ -16,8 +16,8 @@ namespace keyfleet {
 // result could differ from OpenCV's or libjpeg fails: not a JPEG, CMYK, an Exif block (whose
 // orientation cv::imread applies), corrupt data. Never throws.
 // `reduce` 2, 4 or 8 decodes at 1/reduce of the size (each side rounded up) by libjpeg's DCT
-// scaling: the smaller image comes straight from the coefficients, at a fraction of the work,
-// close to an area resize of the full decode but not equal to it. `full_size`, when given, gets
+// scaling: the smaller image comes straight from the coefficients (the entropy decoding stays the
+// same work, the rest shrinks), close to an area resize of the full decode but not equal to it. `full_size`, when given, gets
 // the image's own size. Other values of `reduce` are refused (false).
 bool decode_jpeg_bgr(const std::uint8_t* data, std::size_t size, cv::Mat& out, int reduce = 1,
                      cv::Size* full_size = nullptr);

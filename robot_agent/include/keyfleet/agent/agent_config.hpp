@@ -98,11 +98,12 @@ struct SelectorConfig {
   // window (Alonso et al.). The segmenter's cost grows with each frame scored.
   int max_scored = 0;
   // Frames read from JPEG files (image folders, scenarios) are decoded at 1/decode_reduce of
-  // their size (1, 2, 4 or 8: libjpeg's DCT scaling, a fraction of a whole decode's work) for
-  // the selection, and decoded again whole only where every pixel is needed: the keyframe sent
-  // and the baseline's sampled frames. 2 loses nothing the trigger and the sharpness use at
-  // 640x480 (they work at half size) and 1/16 of the semantic model's 256 rows. Cameras, videos
-  // and the generated source give whole frames whatever this says.
+  // their size (1, 2, 4 or 8: libjpeg's DCT scaling) for the selection, and decoded again whole
+  // only where every pixel is needed: the keyframe sent and the baseline's sampled frames. At
+  // 640x480 the trigger and the sharpness work at half size anyway; measured there, 2 saves a
+  // sixth of a decode and 1-4 % of the agent (docs/results/2026-11-26-decode-reduce.md). A frame
+  // decoded narrower than the quality or semantic stage works at is refused. Cameras, videos and
+  // the generated source give whole frames whatever this says.
   int decode_reduce = 1;
   TriggerConfig trigger;
   QualityConfig quality;
