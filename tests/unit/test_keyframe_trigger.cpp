@@ -289,6 +289,19 @@ TEST_F(GeneratedFlight, KltTriggerFiresSoonAfterTheViewChangesWhole) {
   EXPECT_LE(fired[1], 26u) << "tracking lost for lost_frames frames starts a new map";
 }
 
+// How many of `keyframes` lie within `frames` of one of `reference`.
+std::size_t near_count(const std::vector<std::uint64_t>& keyframes,
+                       const std::vector<std::uint64_t>& reference, std::uint64_t frames) {
+  std::size_t near = 0;
+  for (const auto k : keyframes)
+    for (const auto r : reference)
+      if (k + frames >= r && r + frames >= k) {
+        ++near;
+        break;
+      }
+  return near;
+}
+
 // The ORB trigger is the reference the KLT one replaces: on the generated flight both take
 // keyframes at a similar rate (within 25 %), and most of the KLT keyframes (two thirds) fall
 // within 5 frames of an ORB one (on 2591 frames of 640x480 scenarios and real videos, 99 % were:
@@ -301,14 +314,7 @@ TEST_F(GeneratedFlight, KltTriggerAgreesWithTheOrbTriggerOnAGeneratedFlight) {
   const double ratio = double(by_klt.size()) / double(by_orb.size());
   EXPECT_GT(ratio, 0.75) << both;
   EXPECT_LT(ratio, 1.25) << both;
-  std::size_t near = 0;
-  for (const auto k : by_klt)
-    for (const auto o : by_orb)
-      if (k + 5 >= o && o + 5 >= k) {
-        ++near;
-        break;
-      }
-  EXPECT_GE(3 * near, 2 * by_klt.size()) << both;
+  EXPECT_GE(3 * near_count(by_klt, by_orb, 5), 2 * by_klt.size()) << both;
 }
 
 // selector.decode_reduce: frames decoded at half size are tracked at the same size as whole
@@ -329,14 +335,7 @@ TEST_F(GeneratedFlight, KltTriggerKeepsItsKeyframesOnFramesDecodedAtHalfSize) {
   const double ratio = double(by_reduced.size()) / double(by_whole.size());
   EXPECT_GT(ratio, 0.85) << both;
   EXPECT_LT(ratio, 1.15) << both;
-  std::size_t near = 0;
-  for (const auto r : by_reduced)
-    for (const auto w : by_whole)
-      if (r + 2 >= w && w + 2 >= r) {
-        ++near;
-        break;
-      }
-  EXPECT_GE(4 * near, 3 * by_reduced.size()) << both;
+  EXPECT_GE(4 * near_count(by_reduced, by_whole, 2), 3 * by_reduced.size()) << both;
 }
 
 TEST(KltSlamTrigger, FiresRepeatedlyOnARealHandHeldVideo) {
