@@ -482,6 +482,13 @@ EvalResults run_eval(const EvalConfig& config, const std::string& scenario_dir, 
   if (ctx.encodings.empty()) {
     ctx.encodings.push_back(EncodingPlan{});
     encoding_names.push_back("");
+    // The camera's frames carry no text regions: only the encodings read as the station does.
+    if (config.text.ppocr.region_hints != "off")
+      ctx.logger->warn(
+          "text.region_hints is '{}' but the config lists no encodings: the camera's frames are "
+          "read whole, without the robot's regions (list an encoding, e.g. "
+          "{{name: q85, jpeg_quality: 85}}, to read keyframes as the station does)",
+          config.text.ppocr.region_hints);
   }
   std::vector<std::string> drones = config.drones;
   if (drones.empty())
