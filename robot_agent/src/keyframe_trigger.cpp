@@ -103,12 +103,16 @@ int OrbSlamTrigger::track(const OrbFeatures& current) {
   return int(dx.size());
 }
 
+cv::Size tracking_size(const Frame& frame, double image_scale) {
+  const cv::Size full = frame_size(frame);
+  return {std::max(1, int(std::lround(full.width * image_scale))),
+          std::max(1, int(std::lround(full.height * image_scale)))};
+}
+
 bool OrbSlamTrigger::is_keyframe(const Frame& frame) {
   cv::Mat grey;
   cv::cvtColor(frame.image, grey, cv::COLOR_BGR2GRAY);
-  const cv::Size full = frame_size(frame);  // image_scale is of the frame, not of a reduced decode
-  const cv::Size size(std::max(1, int(std::lround(full.width * params_.image_scale))),
-                      std::max(1, int(std::lround(full.height * params_.image_scale))));
+  const cv::Size size = tracking_size(frame, params_.image_scale);
   if (size != grey.size()) cv::resize(grey, grey, size, 0, 0, cv::INTER_AREA);
   OrbFeatures current = extractor_.extract(grey);
   if (decision_.started()) {

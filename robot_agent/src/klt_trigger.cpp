@@ -118,15 +118,8 @@ bool KltSlamTrigger::decide() {
   return true;
 }
 
-// The frame's own size (not its possibly reduced decode's) times image_scale.
-cv::Size KltSlamTrigger::tracking_size(const Frame& frame) const {
-  const cv::Size full = frame_size(frame);
-  return {std::max(1, int(std::lround(full.width * params_.image_scale))),
-          std::max(1, int(std::lround(full.height * params_.image_scale)))};
-}
-
 bool KltSlamTrigger::is_keyframe(const Frame& frame) {
-  const cv::Size size = tracking_size(frame);
+  const cv::Size size = tracking_size(frame, params_.image_scale);
   const cv::Mat* colour = &frame.image;
   if (size != frame.image.size()) {
     resizer_.resize(frame.image, resized_, size);
@@ -138,7 +131,7 @@ bool KltSlamTrigger::is_keyframe(const Frame& frame) {
 }
 
 bool KltSlamTrigger::is_keyframe_given_grey(const Frame& frame, const cv::Mat& grey) {
-  const cv::Size size = tracking_size(frame);
+  const cv::Size size = tracking_size(frame, params_.image_scale);
   if (grey.size() != size || grey.type() != CV_8UC1) return is_keyframe(frame);
   grey_ = grey;
   return decide();

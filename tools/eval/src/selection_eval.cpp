@@ -1,7 +1,5 @@
 #include "keyfleet/eval/selection_eval.hpp"
 
-#include <opencv2/imgcodecs.hpp>
-
 #include <algorithm>
 #include <filesystem>
 #include <set>
@@ -69,18 +67,22 @@ DroneFrames load_drone_frames(const std::string& scenario_dir, const std::string
   out.info = *info;
   const fs::path folder = fs::path(scenario_dir) / info->folder;
   out.truth = scenario::read_frame_truth(folder.string());
+  std::vector<std::uint8_t> buffer;  // whole decodes: the current file, reused
   for (const auto& t : out.truth) {
     const std::string path = (folder / t.image).string();
-    cv::Mat image = cv::imread(path, cv::IMREAD_COLOR);
-    if (image.empty()) throw StartupError(path + ": cannot read the frame");
-    out.frames.push_back({t.index, t.timestamp_ns, std::move(image), t.camera_to_world});
-    if (decode_reduce > 1) {
-      agent::Frame reduced{t.index, t.timestamp_ns, {}, t.camera_to_world};
-      std::vector<std::uint8_t> unused;
-      if (!agent::read_frame_image(path, decode_reduce, unused, reduced))
-        throw StartupError(path + ": cannot read the frame");
-      out.reduced.push_back(std::move(reduced));
+    agent::Frame frame{t.index, t.timestamp_ns, {}, t.camera_to_world};
+    if (!agent::read_frame_image(path, decode_reduce, buffer, frame))
+      throw StartupError(path + ": cannot read the frame");
+    if (frame.full_size.empty()) {  // decoded whole (decode_reduce 1, or not a JPEG)
+      if (decode_reduce > 1) out.reduced.push_back(frame);
+      out.frames.push_back(std::move(frame));
+      continue;
     }
+    // One read of the file: the whole frame comes from the bytes the reduced one kept.
+    agent::Frame whole{t.index, t.timestamp_ns, agent::full_image(frame), t.camera_to_world};
+    if (whole.image.empty()) throw StartupError(path + ": cannot decode the frame whole");
+    out.frames.push_back(std::move(whole));
+    out.reduced.push_back(std::move(frame));
   }
   return out;
 }

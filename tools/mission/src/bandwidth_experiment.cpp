@@ -140,7 +140,8 @@ void BandwidthExperiment::prepare_scenario(const std::string& dir) {
 
 // The station's reading and place matches against the street's truth.
 void BandwidthExperiment::add_analysis(
-    ExperimentMission& out, const std::set<std::pair<std::string, std::int64_t>>& in_time) const {
+    ExperimentMission& out, const std::set<std::pair<std::string, std::int64_t>>& in_time,
+    bool in_time_known) const {
   const std::string db = (fs::path(out.run_dir) / "station" / "station.sqlite").string();
   try {
     const auto text = eval::score_run_text(scenario_dir_, db);
@@ -155,6 +156,7 @@ void BandwidthExperiment::add_analysis(
     a.visible_words = text.visible_words;
     a.words_read = text.read_visible;
     a.words_read_in_time = timely.read_visible;
+    a.in_time_known = in_time_known;
     a.words_reported = text.words_reported;
     a.junk = text.junk;
     a.place_matches = places.matches;
@@ -387,8 +389,7 @@ ExperimentMission BandwidthExperiment::run_mission(const std::string& dir, const
     out.failures.push_back(e.what());
   }
   if (!scenario_dir_.empty()) {
-    add_analysis(out, in_time);
-    if (out.analysis) out.analysis->in_time_known = in_time_known;
+    add_analysis(out, in_time, in_time_known);
     if (out.analysis)
       progress_ << "station read " << out.analysis->words_read << " of "
                 << out.analysis->visible_words << " sign words visible ("

@@ -46,6 +46,10 @@ class ListTrigger final : public KeyframeTrigger {
   std::int64_t tolerance_ns_;
 };
 
+// The size a trigger tracks at: the frame's own size (not a reduced decode's, see
+// Frame::full_size) times image_scale, each side at least 1.
+cv::Size tracking_size(const Frame& frame, double image_scale);
+
 struct OrbSlamTriggerParams {
   GridOrbParams orb;
   NeedNewKeyframeParams decision;

@@ -45,7 +45,6 @@ class KltSlamTrigger final : public KeyframeTrigger {
   std::size_t reference_corners() const { return corners_; }
 
  private:
-  cv::Size tracking_size(const Frame& frame) const;
   bool decide();  // on grey_
   void make_reference();
   int track();  // inliers against the reference keyframe

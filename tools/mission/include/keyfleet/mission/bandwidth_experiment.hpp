@@ -94,8 +94,10 @@ class BandwidthExperiment {
                                 const StopToken& stop);
 
   void prepare_scenario(const std::string& dir);
+  // in_time_known: every robot's stream start was found (the in-time words are measurable).
   void add_analysis(ExperimentMission& out,
-                    const std::set<std::pair<std::string, std::int64_t>>& in_time) const;
+                    const std::set<std::pair<std::string, std::int64_t>>& in_time,
+                    bool in_time_known) const;
 
   BandwidthExperimentConfig config_;
   MissionBinaries binaries_;
