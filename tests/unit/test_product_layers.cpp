@@ -1,9 +1,9 @@
 // keyfleet's matrix-product stand-ins (dnn_layers.hpp) compute what OpenCV's layers do: the
-// sub-pixel transposed convolution for the geometry it takes over (3x3, stride 2, padding 1,
-// output padding 1) and the 1x1 convolution, with and without bias and a fused activation; in
-// float, and in bfloat16 where the CPU has it (then what OpenCV computes from the input and
-// weights rounded to bfloat16); other geometries stay OpenCV's, and the shipped MiniNet gives the
-// same masks in a batch as one frame at a time.
+// sub-pixel transposed convolution for the geometries it takes over (3x3, stride 2, padding 1,
+// output padding 1; 2x2, stride 2, no padding) and the 1x1 convolution, with and without bias and a
+// fused activation; in float, and in bfloat16 where the CPU has it (then what OpenCV computes from
+// the input and weights rounded to bfloat16); other geometries stay OpenCV's, and the shipped
+// MiniNet gives the same masks in a batch as one frame at a time.
 #include <gtest/gtest.h>
 
 #include <opencv2/dnn/shape_utils.hpp>
@@ -15,6 +15,7 @@
 #include <optional>
 #include <string>
 #include <tuple>
+#include <typeinfo>
 #include <vector>
 
 #include "keyfleet/vision/dnn_layers.hpp"
@@ -131,29 +132,33 @@ TEST(SubpixelDeconvolution, MatchesOpenCvsTransposedConvolution) {
       {40, 18, 4, 8, true, true},  {300, 7, 2, 5, false, false},  {31, 16, 9, 21, true, true},
       {3, 8, 16, 40, true, false}, {288, 96, 4, 8, false, false}, {56, 36, 3, 70, true, true}};
   cv::RNG rng(11);
-  for (const bool bfloat16 : precisions())
-    for (const Shape& s : shapes) {
-      RandomLayer l(rng, s, {s.cin, s.cout, 3, 3});
-      std::string type;
-      const cv::Mat got =
-          deconvolve(l.input, l.weights, l.bias, {}, s.selu, stand_ins(bfloat16), &type);
-      EXPECT_EQ(type, stand_in_type("KeyfleetSubpixelDeconvolution", bfloat16, s.cout));
-      l.round_if_bfloat16(type);
-      const cv::Mat expected =
-          deconvolve(l.input, l.weights, l.bias, {}, s.selu, DnnLayers::opencv());
-      ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
-      EXPECT_EQ(cv::dnn::shape(got), (cv::dnn::MatShape{2, s.cout, 2 * s.h, 2 * s.w}));
-      // Sums of up to 4 x cin products of magnitude <= 2, in another order than OpenCV's
-      // (products of bfloat16 values are exact in float).
-      EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * 4 * s.cin * 2 + 1e-6)
-          << s.cin << " -> " << s.cout << ", " << s.w << "x" << s.h << ", " << type;
-    }
+  // MiniNet's 3x3 (padding 1, output padding 1) and PP-OCR's DB head's 2x2 (no padding).
+  for (const Geometry g : {Geometry{3, 2, 1, 1}, Geometry{2, 2, 0, 0}})
+    for (const bool bfloat16 : precisions())
+      for (const Shape& s : shapes) {
+        RandomLayer l(rng, s, {s.cin, s.cout, g.kernel, g.kernel});
+        std::string type;
+        const cv::Mat got =
+            deconvolve(l.input, l.weights, l.bias, g, s.selu, stand_ins(bfloat16), &type);
+        EXPECT_EQ(type, stand_in_type("KeyfleetSubpixelDeconvolution", bfloat16, s.cout));
+        l.round_if_bfloat16(type);
+        const cv::Mat expected =
+            deconvolve(l.input, l.weights, l.bias, g, s.selu, DnnLayers::opencv());
+        ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
+        EXPECT_EQ(cv::dnn::shape(got), (cv::dnn::MatShape{2, s.cout, 2 * s.h, 2 * s.w}));
+        // Sums of up to 4 x cin products of magnitude <= 2, in another order than OpenCV's
+        // (products of bfloat16 values are exact in float).
+        EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * 4 * s.cin * 2 + 1e-6)
+            << "kernel " << g.kernel << ", " << s.cin << " -> " << s.cout << ", " << s.w << "x"
+            << s.h << ", " << type;
+      }
 }
 
 TEST(SubpixelDeconvolution, LeavesOtherGeometriesToOpenCv) {
   cv::RNG rng(12);
   for (const Geometry g :
-       {Geometry{3, 1, 1, 0}, Geometry{3, 2, 1, 0}, Geometry{4, 2, 1, 0}, Geometry{3, 2, 0, 1}}) {
+       {Geometry{3, 1, 1, 0}, Geometry{3, 2, 1, 0}, Geometry{4, 2, 1, 0}, Geometry{3, 2, 0, 1},
+        Geometry{2, 1, 0, 0}, Geometry{2, 2, 1, 0}, Geometry{2, 2, 0, 1}}) {
     cv::Mat input({1, 4, 5, 6}, CV_32F), weights({4, 3, g.kernel, g.kernel}, CV_32F);
     rng.fill(input, cv::RNG::UNIFORM, -2, 2);
     rng.fill(weights, cv::RNG::UNIFORM, -1, 1);
@@ -246,48 +251,75 @@ TEST(Convolution3x3StandIn, MatchesOpenCvsConvolution) {
   EXPECT_EQ(type, "Convolution");
 }
 
-// A 1x1 convolution followed by a chain of two activations (x 2, then + 1: OpenCV offers both to
-// the convolution in turn): the stand-in takes over the first and leaves the second a layer of its
-// own, so both are applied (before, the second replaced the first).
-TEST(PointwiseStandIn, AChainOfActivationsAfterItIsAppliedWhole) {
+// A convolution followed by PP-OCR's chain of activations (hard swish, then its learnable affine
+// block's scale and shift, which OpenCV's importer makes two Power layers; OpenCV offers each to
+// the convolution in turn): the stand-in takes the whole chain and applies it in order, for the
+// 1x1 product and the depthwise stand-in alike. (Before, a stand-in took the first and left the
+// rest layers of their own; before that, the second replaced the first.)
+TEST(StandIns, AChainOfActivationsAfterThemIsAppliedWholeInOrder) {
   if (!matrix_product_layers_supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layer stays";
   cv::RNG rng(15);
-  const Shape s{16, 12, 4, 8, true, false};
-  RandomLayer l(rng, s, {s.cout, s.cin, 1, 1});
-  const auto run = [&](DnnLayers layers, std::string* type) {
-    cv::dnn::LayerParams conv;
-    conv.name = "conv";
-    conv.type = "Convolution";
-    conv.set("num_output", s.cout);
-    const int kernel[] = {1, 1};
-    conv.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
-    conv.set("bias_term", true);
-    conv.blobs = {l.weights, l.bias};
-    std::optional<DnnLayersScope> scope;
-    if (layers.any()) scope.emplace(layers);
-    cv::dnn::Net net;
-    net.addLayerToPrev(conv.name, conv.type, conv);
-    for (const auto& [name, scale, shift] :
-         {std::tuple{"times_two", 2.f, 0.f}, std::tuple{"plus_one", 1.f, 1.f}}) {
-      cv::dnn::LayerParams power;
-      power.name = name;
-      power.type = "Power";
-      power.set("scale", scale);
-      power.set("shift", shift);
-      net.addLayerToPrev(power.name, power.type, power);
-    }
-    net.setInput(l.input);
-    const cv::Mat out = net.forward().clone();
-    if (type) *type = net.getLayer("conv")->type;
-    return out;
+  struct Case {
+    const char* stand_in;
+    int cout, group, kernel;
   };
-  const cv::Mat expected = run(DnnLayers::opencv(), nullptr);
-  for (const bool bfloat16 : precisions()) {
-    std::string type;
-    const cv::Mat got = run(stand_ins(bfloat16), &type);
-    EXPECT_EQ(type, stand_in_type("KeyfleetPointwise", bfloat16, s.cout));
-    const double tolerance = bfloat16 ? 0.1 : 1e-4;  // sums of 16 products, then doubled
-    EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), tolerance) << type;
+  for (const Case& c : {Case{"KeyfleetPointwise", 12, 1, 1}, Case{"KeyfleetDepthwise", 16, 16, 3},
+                        Case{"KeyfleetDepthwise", 16, 16, 5}}) {
+    const Shape s{16, c.cout, 7, 9, true, false};
+    RandomLayer l(rng, s, {s.cout, s.cin / c.group, c.kernel, c.kernel});
+    // fused: the number of the activations that did not run as layers of their own.
+    const auto run = [&](DnnLayers layers, std::string* type, int* fused = nullptr) {
+      cv::dnn::LayerParams conv;
+      conv.name = "conv";
+      conv.type = "Convolution";
+      conv.set("num_output", s.cout);
+      conv.set("group", c.group);
+      const int kernel[] = {c.kernel, c.kernel}, pad = c.kernel / 2, pads[] = {pad, pad, pad, pad};
+      conv.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
+      conv.set("pad", cv::dnn::DictValue::arrayInt(pads, 4));
+      conv.set("bias_term", true);
+      conv.blobs = {l.weights, l.bias};
+      std::optional<DnnLayersScope> scope;
+      if (layers.any()) scope.emplace(layers);
+      cv::dnn::Net net;
+      net.addLayerToPrev(conv.name, conv.type, conv);
+      cv::dnn::LayerParams swish;
+      swish.name = swish.type = "HardSwish";
+      net.addLayerToPrev(swish.name, swish.type, swish);
+      for (const auto& [name, scale, shift] :
+           {std::tuple{"times_two", 2.f, 0.f}, std::tuple{"plus_one", 1.f, 1.f}}) {
+        cv::dnn::LayerParams power;
+        power.name = name;
+        power.type = "Power";
+        power.set("scale", scale);
+        power.set("shift", shift);
+        net.addLayerToPrev(power.name, power.type, power);
+      }
+      net.setInput(l.input);
+      const cv::Mat out = net.forward().clone();
+      if (type) *type = net.getLayer("conv")->type;
+      if (fused) {
+        std::vector<double> ticks;  // a layer fused into another is skipped: no time of its own
+        net.getPerfProfile(ticks);
+        const std::vector<cv::String> names = net.getLayerNames();
+        *fused = 0;
+        for (std::size_t i = 0; i < names.size() && i < ticks.size(); ++i)
+          if (names[i] != "conv" && ticks[i] == 0) ++*fused;
+      }
+      return out;
+    };
+    const cv::Mat expected = run(DnnLayers::opencv(), nullptr);
+    for (const bool bfloat16 : precisions()) {
+      std::string type;
+      int fused = 0;
+      const cv::Mat got = run(stand_ins(bfloat16), &type, &fused);
+      const bool depthwise = c.group > 1;  // never bfloat16
+      EXPECT_EQ(type, depthwise ? c.stand_in : stand_in_type(c.stand_in, bfloat16, s.cout));
+      EXPECT_EQ(fused, 3) << type << ": the hard swish and both Power layers run in the stand-in";
+      // Sums of up to 25 products, through a hard swish, then doubled.
+      const double tolerance = bfloat16 && !depthwise ? 0.1 : 2e-4;
+      EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), tolerance) << type;
+    }
   }
 }
 
@@ -319,6 +351,40 @@ TEST(HardSwishStandIn, ComputesTheDefinition) {
   }
   hard_swish_vectorised(x.data(), x.data(), int(x.size()));
   EXPECT_EQ(x, y);
+}
+
+// The Power stand-in, (shift + scale x)^power, against OpenCV's own layer: the SIMD path (power 1)
+// on lengths that are no multiple of the SIMD width, and std::pow for another power.
+TEST(PowerStandIn, ComputesWhatOpenCvsPowerLayerDoes) {
+  cv::RNG rng(16);
+  cv::Mat input({1, 3, 5, 7}, CV_32F);
+  rng.fill(input, cv::RNG::UNIFORM, 0.1, 3);
+  for (const auto& [power, scale, shift] :
+       {std::tuple{1.f, 0.37f, -1.25f}, std::tuple{1.f, -2.f, 0.f}, std::tuple{2.f, 0.5f, 1.f},
+        std::tuple{0.5f, 1.f, 0.25f}}) {
+    const auto run = [&](DnnLayers layers, std::string* type) {
+      cv::dnn::LayerParams params;
+      params.name = "power";
+      params.type = "Power";
+      params.set("power", power);
+      params.set("scale", scale);
+      params.set("shift", shift);
+      std::optional<DnnLayersScope> scope;
+      if (layers.any()) scope.emplace(layers);
+      cv::dnn::Net net;
+      net.addLayerToPrev(params.name, params.type, params);
+      net.setInput(input);
+      const cv::Mat out = net.forward().clone();
+      if (type) *type = typeid(*net.getLayer("power")).name();
+      return out;
+    };
+    std::string opencv_class, stand_in_class;
+    const cv::Mat expected = run(DnnLayers::opencv(), &opencv_class);
+    const cv::Mat got = run(DnnLayers::in_float(), &stand_in_class);
+    EXPECT_NE(stand_in_class, opencv_class) << "the stand-in did not run";
+    EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-5)
+        << "power " << power << ", scale " << scale << ", shift " << shift;
+  }
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <opencv2/dnn/layer.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <mutex>
 #include <string>
 
@@ -69,13 +70,15 @@ void hard_swish_vectorised(const float* src, float* dst, int n) {
 namespace {
 
 // An element-wise activation computed by apply(src, dst, n) over whole planes; OpenCV fuses it
-// into the convolution or sum before it where that layer takes an activation.
-class PlaneActivationLayer : public cv::dnn::ActivationLayer {
+// into the convolution or sum before it where that layer takes an activation. Base: the OpenCV
+// class it stands in for (what OpenCV's fusions look for).
+template <class Base = cv::dnn::ActivationLayer>
+class PlaneActivationLayer : public Base {
  public:
   bool getMemoryShapes(const std::vector<cv::dnn::MatShape>& inputs, int required_outputs,
                        std::vector<cv::dnn::MatShape>& outputs,
                        std::vector<cv::dnn::MatShape>& internals) const override {
-    cv::dnn::Layer::getMemoryShapes(inputs, required_outputs, outputs, internals);
+    this->cv::dnn::Layer::getMemoryShapes(inputs, required_outputs, outputs, internals);
     return true;  // may run in place
   }
 
@@ -101,7 +104,7 @@ class PlaneActivationLayer : public cv::dnn::ActivationLayer {
   virtual void apply(const float* src, float* dst, int n) const = 0;
 };
 
-class HardSwishLayer final : public PlaneActivationLayer {
+class HardSwishLayer final : public PlaneActivationLayer<> {
  public:
   explicit HardSwishLayer(const cv::dnn::LayerParams& params) { setParamsFrom(params); }
   static cv::Ptr<cv::dnn::Layer> create(cv::dnn::LayerParams& params) {
@@ -114,7 +117,7 @@ class HardSwishLayer final : public PlaneActivationLayer {
   }
 };
 
-class VectorisedSeluLayer final : public PlaneActivationLayer {
+class VectorisedSeluLayer final : public PlaneActivationLayer<> {
  public:
   explicit VectorisedSeluLayer(const cv::dnn::LayerParams& params)
       // ONNX's defaults (those of the SELU paper), as OpenCV's importer passes them through.
@@ -131,6 +134,66 @@ class VectorisedSeluLayer final : public PlaneActivationLayer {
     selu_vectorised(src, dst, n, alpha_, gamma_);
   }
   float alpha_, gamma_;
+};
+
+// OpenCV's Power layer, (shift + scale x)^power, which its ONNX importer makes of a multiplication
+// or addition by a constant: OpenCV 4.6 computes it one element at a time; this one in SIMD where
+// power is 1 (PP-OCR's learnable affine blocks), else with std::pow. A PowerLayer still, so
+// OpenCV's own convolutions fold it into their weights as they do the original.
+class VectorisedPowerLayer final : public PlaneActivationLayer<cv::dnn::PowerLayer> {
+ public:
+  explicit VectorisedPowerLayer(const cv::dnn::LayerParams& params) {
+    setParamsFrom(params);
+    power = params.get<float>("power", 1.f);
+    scale = params.get<float>("scale", 1.f);
+    shift = params.get<float>("shift", 0.f);
+  }
+  static cv::Ptr<cv::dnn::Layer> create(cv::dnn::LayerParams& params) {
+    return cv::makePtr<VectorisedPowerLayer>(params);
+  }
+
+ private:
+  void apply(const float* src, float* dst, int n) const override {
+    if (power != 1.f) {
+      for (int i = 0; i < n; ++i) dst[i] = std::pow(shift + scale * src[i], power);
+      return;
+    }
+    const cv::v_float32 a = cv::vx_setall_f32(scale), b = cv::vx_setall_f32(shift);
+    constexpr int kLanes = cv::v_float32::nlanes;
+    int i = 0;
+    for (; i + kLanes <= n; i += kLanes)
+      cv::v_store(dst + i, cv::v_fma(cv::vx_load(src + i), a, b));
+    for (; i < n; ++i) dst[i] = src[i] * scale + shift;
+  }
+};
+
+// The activations OpenCV fuses into a stand-in, applied in turn to each output plane while it is in
+// cache: PP-OCR's layers end in a chain of three (hard swish, then the learnable affine block's
+// scale and shift, which OpenCV makes two Power layers), each a pass over memory of its own when
+// not fused. The first reads the plane where the layer wrote it, the others work in place.
+class ActivationChain final : public cv::dnn::ActivationLayer {
+ public:
+  // Takes `layer` after those it has (OpenCV offers each of a chain in turn); empty clears it.
+  bool add(const cv::Ptr<cv::dnn::ActivationLayer>& layer) {
+    if (layer.empty()) {
+      layers_.clear();
+      return false;
+    }
+    layers_.push_back(layer);
+    return true;
+  }
+  bool empty() const { return layers_.empty(); }
+  // Null where there is nothing to apply: what the kernels take.
+  const cv::dnn::ActivationLayer* get() const { return layers_.empty() ? nullptr : this; }
+
+  void forwardSlice(const float* src, float* dst, int len, size_t plane_size, int cn0,
+                    int cn1) const override {
+    for (std::size_t i = 0; i < layers_.size(); ++i)
+      layers_[i]->forwardSlice(i == 0 ? src : dst, dst, len, plane_size, cn0, cn1);
+  }
+
+ private:
+  std::vector<cv::Ptr<cv::dnn::ActivationLayer>> layers_;
 };
 
 // Depthwise convolution, stride 1, any kernel, dilation and (zero) padding; NCHW float.
@@ -173,6 +236,11 @@ class DepthwiseLayer final : public cv::dnn::Layer {
     return false;
   }
 
+  // The activations after it, applied to each plane once computed.
+  bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
+    return activations_.add(layer);
+  }
+
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
                cv::OutputArrayOfArrays) override {
     std::vector<cv::Mat> inputs, outputs;
@@ -182,11 +250,17 @@ class DepthwiseLayer final : public cv::dnn::Layer {
     cv::Mat& out = outputs.at(0);
     CV_Assert(in.type() == CV_32F && in.isContinuous() && out.isContinuous());
     const int channels = in.size[1];
+    const std::size_t out_plane = std::size_t(out.size[2]) * out.size[3];
+    const cv::dnn::ActivationLayer* activation = activations_.get();
     cv::parallel_for_(cv::Range(0, in.size[0] * channels), [&](const cv::Range& planes) {
-      for (int p = planes.start; p < planes.end; ++p)
+      for (int p = planes.start; p < planes.end; ++p) {
+        float* dst = out.ptr<float>() + std::size_t(p) * out_plane;
         plane(in.ptr<float>() + std::size_t(p) * in.size[2] * in.size[3], in.size[2], in.size[3],
-              p % channels, out.ptr<float>() + std::size_t(p) * out.size[2] * out.size[3],
-              out.size[2], out.size[3]);
+              p % channels, dst, out.size[2], out.size[3]);
+        if (activation)
+          activation->forwardSlice(dst, dst, int(out_plane), out_plane, p % channels,
+                                   p % channels + 1);
+      }
     });
   }
 
@@ -218,6 +292,7 @@ class DepthwiseLayer final : public cv::dnn::Layer {
 
   int kh_, kw_, dh_, dw_, pt_, pl_, pb_, pr_;
   cv::Mat weights_, bias_;
+  ActivationChain activations_;
 };
 
 bool both_are(const std::vector<std::size_t>& values, std::size_t v) {
@@ -237,12 +312,10 @@ class ProductLayer : public cv::dnn::Layer {
     type = std::string(layer_type) + (kernel_.bfloat16() ? "Bf16" : "");
   }
 
-  // One activation is taken over; OpenCV offers each of a chain in turn (a scale then a shift),
-  // and a second one refused stays a layer of its own.
+  // The activations after it (OpenCV offers each of a chain in turn), applied while the output is
+  // in cache.
   bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
-    if (!layer.empty() && !activation_.empty()) return false;
-    activation_ = layer;
-    return !activation_.empty();
+    return activations_.add(layer);
   }
 
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
@@ -261,7 +334,7 @@ class ProductLayer : public cv::dnn::Layer {
   virtual void run(const float* in, int height, int width, float* out) = 0;
 
   Kernel kernel_;
-  cv::Ptr<cv::dnn::ActivationLayer> activation_;
+  ActivationChain activations_;
 };
 
 // A float convolution with one group, stride 1 and dilation 1 whose k x k kernel keeps the plane's
@@ -308,7 +381,7 @@ class PointwiseLayer final : public SameSizeLayer<PointwiseConvolution> {
   }
 
   void run(const float* in, int height, int width, float* out) override {
-    kernel_.run(in, height * width, out, activation_.get());
+    kernel_.run(in, height * width, out, activations_.get());
   }
 };
 
@@ -325,7 +398,7 @@ class Convolution3x3Layer final : public SameSizeLayer<Convolution3x3> {
   }
 
   void run(const float* in, int height, int width, float* out) override {
-    kernel_.run(in, height, width, out, activation_.get());
+    kernel_.run(in, height, width, out, activations_.get());
   }
 };
 
@@ -342,8 +415,9 @@ cv::Ptr<cv::dnn::Layer> create_convolution(cv::dnn::LayerParams& params) {
   return opencv;
 }
 
-// Transposed 3x3 convolution, stride 2, padding 1, output padding 1 (MiniNet's upsampling),
-// by its four sub-pixel convolutions; an activation after it is applied as each plane is done.
+// Transposed convolution with stride 2 doubling the plane: 3x3 with padding 1 and output padding 1
+// (MiniNet's upsampling) or 2x2 without padding (PP-OCR's DB head), by its four sub-pixel
+// convolutions; an activation after it is applied as each plane is done.
 class SubpixelDeconvolutionLayer final : public ProductLayer<SubpixelDeconvolution> {
  public:
   explicit SubpixelDeconvolutionLayer(const cv::dnn::LayerParams& params)
@@ -355,9 +429,12 @@ class SubpixelDeconvolutionLayer final : public ProductLayer<SubpixelDeconvoluti
         params.blobs[0].type() != CV_32F)
       return false;
     const cv::Mat& w = params.blobs[0];
-    return both_are(geometry.kernel_size, 3) && both_are(geometry.strides, 2) &&
-           both_are(geometry.dilations, 1) && both_are(geometry.pads_begin, 1) &&
-           both_are(geometry.pads_end, 1) && both_are(geometry.adjust_pads, 1) &&
+    // 3x3 with padding 1 and output padding 1, or 2x2 with neither: twice the input either way.
+    const bool three = both_are(geometry.kernel_size, 3) && both_are(geometry.pads_begin, 1) &&
+                       both_are(geometry.pads_end, 1) && both_are(geometry.adjust_pads, 1);
+    const bool two = both_are(geometry.kernel_size, 2) && both_are(geometry.pads_begin, 0) &&
+                     both_are(geometry.pads_end, 0) && both_are(geometry.adjust_pads, 0);
+    return (three || two) && both_are(geometry.strides, 2) && both_are(geometry.dilations, 1) &&
            geometry.padMode.empty() && params.get<int>("group", 1) == 1 &&
            geometry.numOutput == w.size[1] &&
            (params.blobs.size() < 2 || int(params.blobs[1].total()) == w.size[1]);
@@ -373,7 +450,7 @@ class SubpixelDeconvolutionLayer final : public ProductLayer<SubpixelDeconvoluti
   }
 
   void run(const float* in, int height, int width, float* out) override {
-    kernel_.run(in, height, width, out, activation_.get());
+    kernel_.run(in, height, width, out, activations_.get());
   }
 };
 
@@ -399,6 +476,7 @@ DnnLayersScope::DnnLayersScope(DnnLayers layers) : lock_(scope_mutex()) {
   const std::pair<bool, std::pair<const char*, cv::dnn::LayerFactory::Constructor>> chosen[] = {
       {layers.vectorised_selu, {"Selu", VectorisedSeluLayer::create}},
       {layers.vectorised_hard_swish, {"HardSwish", HardSwishLayer::create}},
+      {layers.vectorised_power, {"Power", VectorisedPowerLayer::create}},
       {layers.depthwise || layers.pointwise || layers.dense_3x3,
        {"Convolution", create_convolution}},
       {layers.subpixel_deconvolution, {"Deconvolution", create_deconvolution}}};

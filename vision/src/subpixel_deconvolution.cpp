@@ -3,6 +3,7 @@
 #include <opencv2/core/hal/intrin.hpp>
 
 #include <algorithm>
+#include <utility>
 
 namespace keyfleet::vision {
 namespace {
@@ -15,13 +16,41 @@ struct Tap {
 constexpr Tap kPhase0[] = {{0, 1}};
 constexpr Tap kPhase1[] = {{0, 2}, {1, 0}};
 
+int kernel_of(const cv::Mat& weights) { return weights.dims == 4 ? weights.size[2] : 0; }
+
+// The 2x2 kernel's phases as 1x1 weights: output (a * 2 + b) * cout + co, input ci is tap (a, b)
+// of input ci to output co; the bias repeated for each phase.
+std::pair<cv::Mat, cv::Mat> phases_as_pointwise(const cv::Mat& weights, const cv::Mat& bias) {
+  const int cin = weights.size[0], cout = weights.size[1];
+  cv::Mat w({4 * cout, cin, 1, 1}, CV_32F), b;
+  const float* from = weights.ptr<float>();  // [cin][cout][2][2]
+  float* to = w.ptr<float>();
+  for (int p = 0; p < 4; ++p)
+    for (int co = 0; co < cout; ++co)
+      for (int ci = 0; ci < cin; ++ci)
+        to[(std::size_t(p) * cout + co) * cin + ci] = from[(std::size_t(ci) * cout + co) * 4 + p];
+  if (!bias.empty()) {
+    b.create(1, 4 * cout, CV_32F);
+    for (int p = 0; p < 4; ++p)
+      std::copy_n(bias.ptr<float>(), cout, b.ptr<float>() + std::size_t(p) * cout);
+  }
+  return {w, b};
+}
+
 }  // namespace
 
 bool SubpixelDeconvolution::supported() { return product_supported(); }
 
 SubpixelDeconvolution::SubpixelDeconvolution(const cv::Mat& weights, const cv::Mat& bias,
                                              bool bfloat16)
-    : ProductKernel(weights, bias, bfloat16, 3, true) {
+    : ProductKernel(weights, bias, bfloat16, kernel_of(weights), true),
+      kernel_(kernel_of(weights)) {
+  CV_Assert(kernel_ == 2 || kernel_ == 3);
+  if (kernel_ == 2) {
+    const auto [w, b] = phases_as_pointwise(weights, bias);
+    phases_2x2_ = std::make_unique<PointwiseConvolution>(w, b, bfloat16_);
+    return;
+  }
   for (int a = 0; a < 2; ++a)
     for (int b = 0; b < 2; ++b) {
       Phase& phase = phases_[a * 2 + b];
@@ -75,6 +104,14 @@ void SubpixelDeconvolution::multiply(const Phase& phase, int block_begin, int bl
 
 void SubpixelDeconvolution::run(const float* src, int h, int w, float* dst,
                                 const cv::dnn::ActivationLayer* activation) {
+  if (kernel_ == 2) {
+    run_2x2(src, h, w);
+    const std::size_t plane = std::size_t(h) * w;
+    interleave(h, w, dst, activation, [&](int phase, int c, int y) {
+      return products_.data() + (std::size_t(phase) * cout_ + c) * plane + std::size_t(y) * w;
+    });
+    return;
+  }
   // Each plane gets a zero column and a zero row after it (what the taps at offset 1 read past
   // the input's edge) and the columns a last block reads beyond that; products are computed on
   // the padded width (the extra column's results are dropped).
@@ -91,17 +128,28 @@ void SubpixelDeconvolution::run(const float* src, int h, int w, float* dst,
     for (int p = 0; p < 4; ++p)
       multiply(phases_[p], blocks.start, blocks.end, products_.data() + p * phase_size);
   });
+  interleave(h, w, dst, activation, [&](int phase, int c, int y) {
+    return products_.data() + phase * phase_size + std::size_t(c) * columns_ +
+           std::size_t(y) * padded_width_;
+  });
+}
 
-  // Interleave the phases: output row 2y + a takes phases (a, 0) and (a, 1) in turn.
+void SubpixelDeconvolution::run_2x2(const float* src, int h, int w) {
+  products_.resize(std::size_t(4) * cout_ * h * w);
+  phases_2x2_->run(src, h * w, products_.data(), nullptr);
+}
+
+void SubpixelDeconvolution::interleave(
+    int h, int w, float* dst, const cv::dnn::ActivationLayer* activation,
+    const std::function<const float*(int, int, int)>& phase_row) {
   const std::size_t out_plane = std::size_t(4) * h * w;
   cv::parallel_for_(cv::Range(0, cout_), [&](const cv::Range& channels) {
     for (int c = channels.start; c < channels.end; ++c) {
       float* plane = dst + c * out_plane;
       for (int y = 0; y < h; ++y)
         for (int a = 0; a < 2; ++a) {
-          const std::size_t at = std::size_t(c) * columns_ + std::size_t(y) * padded_width_;
-          const float* even = products_.data() + (2 * a) * phase_size + at;
-          const float* odd = products_.data() + (2 * a + 1) * phase_size + at;
+          const float* even = phase_row(2 * a, c, y);
+          const float* odd = phase_row(2 * a + 1, c, y);
           float* row = plane + std::size_t(2 * y + a) * 2 * w;
           int x = 0;
           for (; x + 4 <= w; x += 4) {

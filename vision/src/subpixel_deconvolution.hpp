@@ -1,18 +1,25 @@
 #pragma once
-// A transposed 3x3 convolution with stride 2, padding 1 and output padding 1 (the output is twice
-// the input in each direction) computed as its four sub-pixel convolutions: output pixel
-// (2i + a, 2j + b) only ever meets the kernel taps of its phase (a, b), 1, 2, 2 and 4 taps of the
-// nine, applied to input pixels (i, j), (i, j + 1), (i + 1, j), (i + 1, j + 1). Each phase is one
-// matrix product over the input read in place, so no scatter of partial sums (OpenCV's col2im)
-// and no multiplication by zero. Internal to keyfleet_vision (dnn_layers.cpp wraps it).
+// A transposed convolution with stride 2 whose output is twice the input in each direction,
+// computed as its four sub-pixel convolutions: output pixel (2i + a, 2j + b) only ever meets the
+// kernel taps of its phase (a, b). Two geometries:
+// - 3x3, padding 1, output padding 1 (MiniNet's upsampling): 1, 2, 2 and 4 taps of the nine,
+//   applied to input pixels (i, j), (i, j + 1), (i + 1, j), (i + 1, j + 1); each phase is one
+//   matrix product over the input read in place;
+// - 2x2, no padding (PP-OCR's DB head): tap (a, b) alone, applied to input pixel (i, j), so the
+//   four phases are one 1x1 convolution with four times the outputs (pointwise_convolution.hpp).
+// No scatter of partial sums (OpenCV's col2im) and no multiplication by zero. Internal to
+// keyfleet_vision (dnn_layers.cpp wraps it).
 #include <opencv2/core.hpp>
 #include <opencv2/dnn/all_layers.hpp>
 
 #include <cstdint>
+#include <functional>
+#include <memory>
 #include <vector>
 
 #include "avx2_product.hpp"
 #include "bf16_product.hpp"
+#include "pointwise_convolution.hpp"
 #include "product_operands.hpp"
 
 namespace keyfleet::vision {
@@ -22,7 +29,8 @@ class SubpixelDeconvolution : public ProductKernel {
   // Whether this CPU runs the kernel (x86-64 with AVX2 and FMA); elsewhere OpenCV's layer stays.
   static bool supported();
 
-  // weights: input channels x output channels x 3 x 3 (ONNX ConvTranspose's layout), float;
+  // weights: input channels x output channels x k x k, k = 3 or 2 (ONNX ConvTranspose's layout,
+  // the geometries above), float;
   // bias: empty or one float per output channel. bfloat16: multiply in bfloat16 pairs (sums in
   // float) where bf16_product_pays (the CPU has AVX512-BF16, 8 or more output channels).
   SubpixelDeconvolution(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16);
@@ -42,6 +50,15 @@ class SubpixelDeconvolution : public ProductKernel {
 
   void pack(ProductBlock block);  // the weights for blocks of that shape
   void multiply(const Phase& phase, int block_begin, int block_end, float* out) const;
+  void run_2x2(const float* src, int h, int w);  // the four phases into products_
+  // dst's plane c, row 2y + a takes phase (a, 0)'s and (a, 1)'s row y in turn, from
+  // phase_row(phase, c, y); then the activation.
+  void interleave(int h, int w, float* dst, const cv::dnn::ActivationLayer* activation,
+                  const std::function<const float*(int, int, int)>& phase_row);
+
+  int kernel_;  // 3 or 2
+  // 2x2: the four phases as one 1x1 convolution of 4 x output channels, phase-major.
+  std::unique_ptr<PointwiseConvolution> phases_2x2_;
 
   // The block shape the weights are packed for (chosen per input size: the least padding).
   int rows_per_block_ = 0, row_blocks_ = 0, lanes_per_block_ = 0;

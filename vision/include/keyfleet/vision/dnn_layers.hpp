@@ -7,17 +7,23 @@
 // - stride-1 depthwise convolution: OpenCV's costs about a microsecond a channel on the narrow
 //   planes of MiniNet's inner layers (16, 8 and 4 columns at 512x256) and more when dilated; this
 //   one runs along the rows with SIMD and skips zero taps.
-// - transposed 3x3 convolution, stride 2, padding 1, output padding 1 (MiniNet's upsampling):
-//   OpenCV multiplies by all nine taps into a column buffer, then scatters and sums it (col2im);
-//   this one computes each of the four output phases as one matrix product over the input read
-//   in place (no zero taps, no scatter).
-// - 1x1 convolution (stride 1, one group): the same matrix product, the activation applied
-//   while the columns are in cache.
+// - transposed 3x3 convolution, stride 2, padding 1, output padding 1 (MiniNet's upsampling), and
+//   transposed 2x2 convolution, stride 2, no padding (PP-OCR's DB head): OpenCV multiplies by all
+//   taps into a column buffer, then scatters and sums it (col2im); this one computes each of the
+//   four output phases as one matrix product over the input read in place (no zero taps, no
+//   scatter).
+// - 1x1 convolution (stride 1, one group): the same matrix product, the activations after it
+//   applied while the columns are in cache.
 // - dense 3x3 convolution (stride 1, padding 1, one group): the same matrix product with nine
 //   taps over a bordered copy of the input.
 // - hard swish, x * min(max(x + 3, 0), 6) / 6 (PP-OCR's activation, one ONNX HardSwish node
 //   after models/ppocr/convert_ppocr.py): OpenCV 4.6's HardSwish layer is slower than the five
 //   nodes it replaces; this one is SIMD and, as an ActivationLayer, fused into the layer before.
+// - power, (shift + scale x)^power (what OpenCV's importer makes of PP-OCR's multiplications and
+//   additions by a constant, the learnable affine blocks after each activation): OpenCV 4.6
+//   computes it one element at a time; this one in SIMD where power is 1.
+// Each stand-in convolution takes the whole chain of activations OpenCV fuses into it (PP-OCR's
+// hard swish, scale and shift) and applies it to each output plane while it is in cache.
 // The three product stand-ins need x86-64 with AVX2 and FMA (elsewhere OpenCV's layers stay); any
 // other convolution or transposed convolution stays OpenCV's. With `bfloat16_products`, where the
 // CPU also has AVX512-BF16, they multiply in bfloat16 with float sums (twice the multiply-adds per
@@ -40,12 +46,13 @@ struct DnnLayers {
   bool bfloat16_products = true;  // the product stand-ins in bfloat16 where the CPU has it
   bool dense_3x3 = true;
   bool vectorised_hard_swish = true;
-  static DnnLayers opencv() { return {false, false, false, false, false, false, false}; }
+  bool vectorised_power = true;
+  static DnnLayers opencv() { return {false, false, false, false, false, false, false, false}; }
   // All stand-ins in float: OpenCV's outputs to float rounding, on any CPU.
-  static DnnLayers in_float() { return {true, true, true, true, false, true, true}; }
+  static DnnLayers in_float() { return {true, true, true, true, false, true, true, true}; }
   bool any() const {
     return vectorised_selu || depthwise || subpixel_deconvolution || pointwise || dense_3x3 ||
-           vectorised_hard_swish;
+           vectorised_hard_swish || vectorised_power;
   }
 };
 
