@@ -251,6 +251,48 @@ TEST(Convolution3x3StandIn, MatchesOpenCvsConvolution) {
   EXPECT_EQ(type, "Convolution");
 }
 
+// The depthwise stand-in against OpenCV's convolution: PP-OCR's 3x3 and 5x5 kernels, MiniNet's
+// dilated ones, no padding, planes narrower than the kernel's reach and widths either side of the
+// SIMD paths (8 and 32 columns), a zero tap, with and without bias.
+TEST(DepthwiseStandIn, MatchesOpenCvsConvolution) {
+  struct Case {
+    int kernel, dilation, pad, h, w;
+    bool bias;
+  };
+  const std::vector<Case> cases = {
+      {3, 1, 1, 9, 40, true}, {5, 1, 2, 7, 33, true}, {3, 2, 2, 6, 70, false},
+      {3, 4, 4, 5, 31, true}, {5, 1, 0, 8, 12, true}, {3, 1, 1, 1, 1, true},
+      {5, 1, 2, 2, 3, false}, {3, 1, 1, 4, 8, true},  {7, 1, 3, 16, 65, true}};
+  cv::RNG rng(17);
+  for (const Case& c : cases) {
+    const int channels = 6;
+    RandomLayer l(rng, {channels, channels, c.h, c.w, c.bias, false},
+                  {channels, 1, c.kernel, c.kernel});
+    l.weights.ptr<float>()[1] = 0.f;  // a skipped tap
+    const auto run = [&](DnnLayers layers, std::string* type) {
+      cv::dnn::LayerParams params;
+      params.type = "Convolution";
+      params.set("num_output", channels);
+      params.set("group", channels);
+      const int kernel[] = {c.kernel, c.kernel}, dilation[] = {c.dilation, c.dilation},
+                pads[] = {c.pad, c.pad, c.pad, c.pad};
+      params.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
+      params.set("dilation", cv::dnn::DictValue::arrayInt(dilation, 2));
+      params.set("pad", cv::dnn::DictValue::arrayInt(pads, 4));
+      return run_layer(params, l.input, l.weights, l.bias, false, layers, type);
+    };
+    std::string type;
+    const cv::Mat got = run(DnnLayers::in_float(), &type);
+    const cv::Mat expected = run(DnnLayers::opencv(), nullptr);
+    EXPECT_EQ(type, "KeyfleetDepthwise");
+    ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
+    // Sums of up to 49 products of magnitude <= 2, in another order than OpenCV's.
+    EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * 49 * 2 + 1e-6)
+        << "kernel " << c.kernel << ", dilation " << c.dilation << ", pad " << c.pad << ", " << c.w
+        << "x" << c.h;
+  }
+}
+
 // A convolution followed by PP-OCR's chain of activations (hard swish, then its learnable affine
 // block's scale and shift, which OpenCV's importer makes two Power layers; OpenCV offers each to
 // the convolution in turn): the stand-in takes the whole chain and applies it in order, for the

@@ -12,6 +12,7 @@
 
 #include "bf16_product.hpp"
 #include "convolution_3x3.hpp"
+#include "depthwise_avx2.hpp"
 #include "pointwise_convolution.hpp"
 #include "selu_avx2.hpp"
 #include "subpixel_deconvolution.hpp"
@@ -196,7 +197,8 @@ class ActivationChain final : public cv::dnn::ActivationLayer {
   std::vector<cv::Ptr<cv::dnn::ActivationLayer>> layers_;
 };
 
-// Depthwise convolution, stride 1, any kernel, dilation and (zero) padding; NCHW float.
+// Depthwise convolution, stride 1, any kernel, dilation and (zero) padding; NCHW float. With AVX2
+// and FMA a row's taps are summed in registers (depthwise_avx2.hpp), else a pass per tap.
 class DepthwiseLayer final : public cv::dnn::Layer {
  public:
   DepthwiseLayer(const cv::dnn::LayerParams& params, const cv::dnn::BaseConvolutionLayer& geometry)
@@ -266,6 +268,11 @@ class DepthwiseLayer final : public cv::dnn::Layer {
 
  private:
   void plane(const float* src, int h, int w, int channel, float* dst, int ho, int wo) const {
+    if (depthwise_avx2_supported()) {
+      depthwise_plane_avx2(src, h, w, weights_.ptr<float>(channel), kh_, kw_, dh_, dw_, pt_, pl_,
+                           bias_.empty() ? 0.f : bias_.at<float>(channel), dst, ho, wo);
+      return;
+    }
     std::fill(dst, dst + std::size_t(ho) * wo, bias_.empty() ? 0.f : bias_.at<float>(channel));
     const float* kernel = weights_.ptr<float>(channel);
     constexpr int kLanes = cv::v_float32::nlanes;

@@ -1,0 +1,20 @@
+#pragma once
+// One plane of a stride-1 depthwise convolution with AVX2 and FMA (x86-64); internal to
+// keyfleet_vision (dnn_layers.cpp's depthwise stand-in). Each output vector sums all its taps in
+// registers and is stored once: the plane-at-a-time way (a pass over the output per tap) reads and
+// writes the output plane kh x kw times, which costs more than the multiplications on PP-OCR's
+// large planes (16 channels of 240x320 in its detector's first block at 640x480).
+
+namespace keyfleet::vision {
+
+// Whether this CPU runs depthwise_plane_avx2 (x86-64 with AVX2 and FMA).
+bool depthwise_avx2_supported();
+
+// dst (ho x wo) = bias + sum over taps (ky, kx) of kernel[ky * kw + kx] times src (h x w) at
+// (y - pt + ky dh, x - pl + kx dw), zero outside src. Taps of weight 0 are skipped; the taps are
+// summed in the order ky, kx (as the portable code does), over a copy of the plane with a zero
+// border. Requires depthwise_avx2_supported().
+void depthwise_plane_avx2(const float* src, int h, int w, const float* kernel, int kh, int kw,
+                          int dh, int dw, int pt, int pl, float bias, float* dst, int ho, int wo);
+
+}  // namespace keyfleet::vision
