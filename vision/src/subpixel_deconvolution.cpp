@@ -105,11 +105,7 @@ void SubpixelDeconvolution::multiply(const Phase& phase, int block_begin, int bl
 void SubpixelDeconvolution::run(const float* src, int h, int w, float* dst,
                                 const cv::dnn::ActivationLayer* activation) {
   if (kernel_ == 2) {
-    run_2x2(src, h, w);
-    const std::size_t plane = std::size_t(h) * w;
-    interleave(h, w, dst, activation, [&](int phase, int c, int y) {
-      return products_.data() + (std::size_t(phase) * cout_ + c) * plane + std::size_t(y) * w;
-    });
+    run_2x2(src, h, w, dst, activation);
     return;
   }
   // Each plane gets a zero column and a zero row after it (what the taps at offset 1 read past
@@ -128,25 +124,42 @@ void SubpixelDeconvolution::run(const float* src, int h, int w, float* dst,
     for (int p = 0; p < 4; ++p)
       multiply(phases_[p], blocks.start, blocks.end, products_.data() + p * phase_size);
   });
-  interleave(h, w, dst, activation, [&](int phase, int c, int y) {
+  interleave(0, h, h, w, dst, activation, [&](int phase, int c, int y) {
     return products_.data() + phase * phase_size + std::size_t(c) * columns_ +
            std::size_t(y) * padded_width_;
   });
 }
 
-void SubpixelDeconvolution::run_2x2(const float* src, int h, int w) {
-  products_.resize(std::size_t(4) * cout_ * h * w);
-  phases_2x2_->run(src, h * w, products_.data(), nullptr);
+void SubpixelDeconvolution::run_2x2(const float* src, int h, int w, float* dst,
+                                    const cv::dnn::ActivationLayer* activation) {
+  // Bands of input rows whose four phase products take about 512 KB (within L2): written and
+  // read back in cache, where whole planes (7 MB for PP-OCR's first 2x2 layer at 640x480) went to
+  // memory and back.
+  constexpr int kBandFloats = 128 * 1024;
+  const int band = std::clamp(kBandFloats / (4 * cout_ * w), 1, h);
+  const std::size_t plane = std::size_t(h) * w;
+  band_input_.resize(std::size_t(cin_) * band * w);
+  products_.resize(std::size_t(4) * cout_ * band * w);
+  for (int y0 = 0; y0 < h; y0 += band) {
+    const int rows = std::min(band, h - y0);
+    const std::size_t pixels = std::size_t(rows) * w;
+    for (int c = 0; c < cin_; ++c)
+      std::copy_n(src + c * plane + std::size_t(y0) * w, pixels, band_input_.data() + c * pixels);
+    phases_2x2_->run(band_input_.data(), int(pixels), products_.data(), nullptr);
+    interleave(y0, y0 + rows, h, w, dst, activation, [&](int phase, int c, int y) {
+      return products_.data() + (std::size_t(phase) * cout_ + c) * pixels + std::size_t(y - y0) * w;
+    });
+  }
 }
 
 void SubpixelDeconvolution::interleave(
-    int h, int w, float* dst, const cv::dnn::ActivationLayer* activation,
+    int y0, int y1, int h, int w, float* dst, const cv::dnn::ActivationLayer* activation,
     const std::function<const float*(int, int, int)>& phase_row) {
   const std::size_t out_plane = std::size_t(4) * h * w;
   cv::parallel_for_(cv::Range(0, cout_), [&](const cv::Range& channels) {
     for (int c = channels.start; c < channels.end; ++c) {
       float* plane = dst + c * out_plane;
-      for (int y = 0; y < h; ++y)
+      for (int y = y0; y < y1; ++y)
         for (int a = 0; a < 2; ++a) {
           const float* even = phase_row(2 * a, c, y);
           const float* odd = phase_row(2 * a + 1, c, y);
@@ -163,7 +176,11 @@ void SubpixelDeconvolution::interleave(
             row[2 * x + 1] = odd[x];
           }
         }
-      if (activation) activation->forwardSlice(plane, plane, int(out_plane), out_plane, c, c + 1);
+      if (activation) {
+        float* rows = plane + std::size_t(2 * y0) * 2 * w;
+        const int length = 4 * (y1 - y0) * w;
+        activation->forwardSlice(rows, rows, length, out_plane, c, c + 1);
+      }
     }
   });
 }

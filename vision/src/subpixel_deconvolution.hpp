@@ -50,10 +50,13 @@ class SubpixelDeconvolution : public ProductKernel {
 
   void pack(ProductBlock block);  // the weights for blocks of that shape
   void multiply(const Phase& phase, int block_begin, int block_end, float* out) const;
-  void run_2x2(const float* src, int h, int w);  // the four phases into products_
-  // dst's plane c, row 2y + a takes phase (a, 0)'s and (a, 1)'s row y in turn, from
-  // phase_row(phase, c, y); then the activation.
-  void interleave(int h, int w, float* dst, const cv::dnn::ActivationLayer* activation,
+  // 2x2: a band of input rows at a time (its products stay in cache until interleaved).
+  void run_2x2(const float* src, int h, int w, float* dst,
+               const cv::dnn::ActivationLayer* activation);
+  // For input rows y in [y0, y1): dst's plane c, row 2y + a takes phase (a, 0)'s and (a, 1)'s
+  // row y in turn, from phase_row(phase, c, y); then the activation on those output rows.
+  void interleave(int y0, int y1, int h, int w, float* dst,
+                  const cv::dnn::ActivationLayer* activation,
                   const std::function<const float*(int, int, int)>& phase_row);
 
   int kernel_;  // 3 or 2
@@ -68,6 +71,7 @@ class SubpixelDeconvolution : public ProductKernel {
   int padded_width_ = 0, columns_ = 0;
   ProductInput input_;
   std::vector<float> products_;
+  std::vector<float> band_input_;  // 2x2: the input's band, channels contiguous
 };
 
 }  // namespace keyfleet::vision
