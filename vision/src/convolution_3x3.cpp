@@ -4,6 +4,12 @@
 
 namespace keyfleet::vision {
 
+Convolution3x3::Convolution3x3(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16)
+    : ProductKernel(weights, bias, bfloat16, 3, false) {
+  if (!bfloat16_ && cin_ >= 8 && cout_ >= 8)
+    winograd_ = std::make_unique<Winograd3x3>(weights, bias);
+}
+
 void Convolution3x3::pack(ProductBlock block) {
   block_ = block;
   row_blocks_ = (cout_ + block.rows - 1) / block.rows;
@@ -31,6 +37,10 @@ void Convolution3x3::multiply(int block_begin, int block_end) {
 
 void Convolution3x3::run(const float* src, int h, int w, float* dst,
                          const cv::dnn::ActivationLayer* activation) {
+  if (winograd_) {
+    winograd_->run(src, h, w, dst, activation);
+    return;
+  }
   // Each plane gets a zero border (a column either side, a row above and below); products are
   // computed on the bordered width from the top-left of the border, so output (y, x) is column
   // y * (w + 2) + x and the two columns past w of each row are dropped.

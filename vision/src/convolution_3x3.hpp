@@ -1,6 +1,8 @@
 #pragma once
 // A 3x3 convolution with stride 1, padding 1 and one group (PP-OCR's and PlaceNet's dense 3x3
-// layers) as one matrix product of nine taps over the input read in place: each plane gets a
+// layers): in float with 8 or more inputs and outputs by Winograd's F(2x2, 3x3)
+// (winograd_3x3.hpp, 16 multiplications for 4 output pixels instead of 36), else (bfloat16, few
+// channels) as one matrix product of nine taps over the input read in place: each plane gets a
 // zero border, and output pixel (y, x) sums tap (ky, kx) of the input at (y + ky, x + kx) of the
 // bordered plane, a fixed shift along its rows. Internal to keyfleet_vision (dnn_layers.cpp wraps
 // it).
@@ -8,11 +10,13 @@
 #include <opencv2/dnn/all_layers.hpp>
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "avx2_product.hpp"
 #include "bf16_product.hpp"
 #include "product_operands.hpp"
+#include "winograd_3x3.hpp"
 
 namespace keyfleet::vision {
 
@@ -20,8 +24,9 @@ class Convolution3x3 : public ProductKernel {
  public:
   // weights: output channels x input channels x 3 x 3, float; bias: empty or one per output;
   // bfloat16 as for SubpixelDeconvolution.
-  Convolution3x3(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16)
-      : ProductKernel(weights, bias, bfloat16, 3, false) {}
+  // In float with 8 or more inputs and outputs the layer runs as Winograd's F(2x2, 3x3)
+  // (winograd_3x3.hpp), else as nine taps of the product.
+  Convolution3x3(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16);
 
   // One image: src is input_channels planes of h x w, dst output_channels planes of h x w, each
   // set contiguous; `activation` (may be null) is applied to each output plane once written.
@@ -32,6 +37,7 @@ class Convolution3x3 : public ProductKernel {
   void pack(ProductBlock block);  // the weights for blocks of that shape
   void multiply(int block_begin, int block_end);
 
+  std::unique_ptr<Winograd3x3> winograd_;  // where it pays
   ProductBlock block_{0, 0};
   int row_blocks_ = 0;
   PackedWeights packed_;

@@ -1,0 +1,49 @@
+#pragma once
+// A 3x3 convolution (stride 1, padding 1, one group) by Winograd's minimal filtering F(2x2, 3x3)
+// (Lavin and Gray, "Fast Algorithms for Convolutional Neural Networks", 2016): each 2x2 block of
+// output pixels is A^T [(G g G^T) . (B^T d B)] A of its 4x4 input patch d, so 16 multiplications
+// a block where the direct way takes 36. The 16 element-wise products summed over input channels
+// are 16 matrix products (avx2_product.hpp); the transforms run 8 blocks at a time in AVX2.
+// Float only; internal to keyfleet_vision (convolution_3x3.cpp uses it where it pays).
+#include <opencv2/core.hpp>
+#include <opencv2/dnn/all_layers.hpp>
+
+#include <vector>
+
+#include "avx2_product.hpp"
+#include "product_operands.hpp"
+
+namespace keyfleet::vision {
+
+class Winograd3x3 {
+ public:
+  // weights: outputs x inputs x 3 x 3, float; bias: empty or one float per output.
+  Winograd3x3(const cv::Mat& weights, const cv::Mat& bias);
+
+  // One image: src is input channels planes of h x w, dst output channels planes of h x w, each
+  // set contiguous; `activation` (may be null) is applied to each output plane's rows once
+  // written. Runs on cv::parallel_for_'s threads. Not reentrant (work buffers).
+  void run(const float* src, int h, int w, float* dst, const cv::dnn::ActivationLayer* activation);
+
+ private:
+  void pack(ProductBlock block);
+  // Blocks [ty0, ty1) of block rows: the transformed input, the products, the outputs.
+  void transform_input(const float* src, int h, int w, int ty0, int ty1);
+  void multiply(int columns);
+  void transform_output(int ty0, int ty1, int h, int w, float* dst,
+                        const cv::dnn::ActivationLayer* activation);
+
+  int cin_, cout_;
+  std::vector<float> transformed_;  // [16][cout][cin]: G g G^T of each kernel
+  std::vector<float> bias_;
+  ProductBlock block_{0, 0};
+  int row_blocks_ = 0;
+  PackedWeights packed_;
+  // Per run: the blocks along a row (a multiple of 8); per band: its transform
+  // [16][cin][columns_], the products [16][outputs][columns_].
+  int blocks_across_ = 0, columns_ = 0;
+  std::size_t v_plane_ = 0, m_plane_ = 0;  // between the 16 planes of v_ and of m_
+  std::vector<float> v_, m_;
+};
+
+}  // namespace keyfleet::vision
