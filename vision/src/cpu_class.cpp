@@ -61,8 +61,10 @@ std::string cpu_class_line() {
 }
 
 std::string segmenter_kernels(bool bfloat16_wanted) {
-  if (bfloat16_wanted && bfloat16_products_supported()) return "bfloat16 products (AVX512-BF16)";
-  if (matrix_product_layers_supported()) return "float products (AVX2+FMA)";
+  if (bfloat16_wanted && bfloat16_products_supported())
+    return "bfloat16 products (AVX512-BF16), depthwise in AVX2";
+  if (matrix_product_layers_supported())
+    return "float products, Winograd 3x3, depthwise in AVX2 (AVX2+FMA)";
   return "OpenCV's layers";
 }
 

@@ -11,8 +11,9 @@ namespace keyfleet::vision {
 // AVX2 FMA3 AVX512_SKX ... [OPENCV_CPU_DISABLE=...]"
 std::string cpu_class_line();
 
-// The segmenter's products: "bfloat16 products (AVX512-BF16)", "float products (AVX2+FMA)" or
-// "OpenCV's layers", for a semantic config that asks for bfloat16 or not.
+// The segmenter's kernels: "bfloat16 products (AVX512-BF16), depthwise in AVX2", "float
+// products, Winograd 3x3, depthwise in AVX2 (AVX2+FMA)" or "OpenCV's layers", for a semantic
+// config that asks for bfloat16 or not.
 std::string segmenter_kernels(bool bfloat16_wanted);
 
 }  // namespace keyfleet::vision
