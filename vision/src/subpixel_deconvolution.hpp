@@ -32,7 +32,8 @@ class SubpixelDeconvolution : public ProductKernel {
   // weights: input channels x output channels x k x k, k = 3 or 2 (ONNX ConvTranspose's layout,
   // the geometries above), float;
   // bias: empty or one float per output channel. bfloat16: multiply in bfloat16 pairs (sums in
-  // float) where bf16_product_pays (the CPU has AVX512-BF16, 8 or more output channels).
+  // float) where bf16_product_pays (the CPU has AVX512-BF16, 8 or more output channels); the
+  // 2x2 geometry always multiplies in float.
   SubpixelDeconvolution(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16);
 
   // One image: src is input_channels planes of h x w, dst output_channels planes of 2h x 2w,
