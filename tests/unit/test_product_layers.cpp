@@ -1,9 +1,10 @@
-// keyfleet's matrix-product stand-ins (dnn_layers.hpp) compute what OpenCV's layers do: the
-// sub-pixel transposed convolution for the geometries it takes over (3x3, stride 2, padding 1,
-// output padding 1; 2x2, stride 2, no padding) and the 1x1 convolution, with and without bias and a
-// fused activation; in float, and in bfloat16 where the CPU has it (then what OpenCV computes from
-// the input and weights rounded to bfloat16); other geometries stay OpenCV's, and the shipped
-// MiniNet gives the same masks in a batch as one frame at a time.
+// keyfleet's stand-in layers (dnn_layers.hpp) compute what OpenCV's layers do: the sub-pixel
+// transposed convolution for the geometries it takes over (3x3, stride 2, padding 1, output
+// padding 1; 2x2, stride 2, no padding), the 1x1 convolution, the dense 3x3 one (Winograd's in
+// float), the depthwise one, with and without bias and a fused chain of activations; in float,
+// and in bfloat16 where the CPU has it (then what OpenCV computes from the input and weights
+// rounded to bfloat16); Power, the inner product and softmax; other geometries stay OpenCV's,
+// and the shipped MiniNet gives the same masks in a batch as one frame at a time.
 #include <gtest/gtest.h>
 
 #include <opencv2/dnn/shape_utils.hpp>
@@ -441,6 +442,100 @@ TEST(PowerStandIn, ComputesWhatOpenCvsPowerLayerDoes) {
     EXPECT_NE(stand_in_class, opencv_class) << "the stand-in did not run";
     EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-5)
         << "power " << power << ", scale " << scale << ", shift " << shift;
+  }
+}
+
+// The inner product stand-in against OpenCV's InnerProduct with constant weights: PP-OCR's
+// recogniser's last layer (40 steps x 120 -> 6625 characters, flagged transB as its importer does),
+// one row, rows and outputs off every block size, with and without bias, the axis at 1 and 2.
+TEST(InnerProductStandIn, MatchesOpenCvsInnerProduct) {
+  if (!matrix_product_layers_supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layer stays";
+  struct Case {
+    std::vector<int> input;
+    int axis, outputs;
+    bool bias, trans_b;
+  };
+  const std::vector<Case> cases = {
+      {{1, 40, 120}, 2, 6625, true, true}, {{1, 7}, 1, 5, false, false},
+      {{3, 5, 4}, 1, 17, true, false},     {{2, 9, 33}, 2, 49, true, true},
+      {{1, 1, 1}, 2, 1, true, false},      {{5, 64}, 1, 300, false, true}};
+  cv::RNG rng(18);
+  for (const Case& c : cases) {
+    cv::Mat input(c.input, CV_32F);
+    rng.fill(input, cv::RNG::UNIFORM, -2, 2);
+    const int depth = int(input.total()) / cv::dnn::total(c.input, 0, c.axis);
+    cv::Mat weights(c.outputs, depth, CV_32F), bias(1, c.outputs, CV_32F);
+    rng.fill(weights, cv::RNG::UNIFORM, -1, 1);
+    rng.fill(bias, cv::RNG::UNIFORM, -1, 1);
+    const auto run = [&](DnnLayers layers, std::string* type) {
+      cv::dnn::LayerParams params;
+      params.name = "fc";
+      params.type = "InnerProduct";
+      params.set("num_output", c.outputs);
+      params.set("axis", c.axis);
+      params.set("bias_term", c.bias);
+      params.set("transB", c.trans_b);
+      params.blobs = {weights.clone()};
+      if (c.bias) params.blobs.push_back(bias.clone());
+      std::optional<DnnLayersScope> scope;
+      if (layers.any()) scope.emplace(layers);
+      cv::dnn::Net net;
+      net.addLayerToPrev(params.name, params.type, params);
+      net.setInput(input);
+      const cv::Mat out = net.forward().clone();
+      if (type) *type = net.getLayer("fc")->type;
+      return out;
+    };
+    std::string type;
+    const cv::Mat got = run(DnnLayers::in_float(), &type);
+    const cv::Mat expected = run(DnnLayers::opencv(), nullptr);
+    EXPECT_EQ(type, "KeyfleetInnerProduct");
+    ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
+    // Sums of `depth` products of magnitude <= 2, in another order than OpenCV's.
+    EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * depth * 2 + 1e-6)
+        << c.outputs << " outputs of " << depth;
+  }
+}
+
+// The softmax stand-in against OpenCV's: over the last axis (PP-OCR's recogniser: 6625 characters
+// a step), over a middle one (positions after it side by side), log-softmax, large logits.
+TEST(SoftmaxStandIn, MatchesOpenCvsSoftmax) {
+  struct Case {
+    std::vector<int> input;
+    int axis;
+    bool log;
+    double scale;
+  };
+  const std::vector<Case> cases = {{{1, 40, 6625}, 2, false, 10}, {{1, 40, 6625}, -1, false, 10},
+                                   {{2, 3, 5, 7}, 1, false, 3},   {{2, 3, 5, 7}, 2, true, 3},
+                                   {{4, 13}, 1, true, 50},        {{1, 8, 9, 9}, 3, false, 1},
+                                   {{3, 1}, 1, false, 1}};
+  cv::RNG rng(19);
+  for (const Case& c : cases) {
+    cv::Mat input(c.input, CV_32F);
+    rng.fill(input, cv::RNG::UNIFORM, -c.scale, c.scale);
+    const auto run = [&](DnnLayers layers, std::string* type) {
+      cv::dnn::LayerParams params;
+      params.name = "softmax";
+      params.type = "Softmax";
+      params.set("axis", c.axis);
+      params.set("log_softmax", c.log);
+      std::optional<DnnLayersScope> scope;
+      if (layers.any()) scope.emplace(layers);
+      cv::dnn::Net net;
+      net.addLayerToPrev(params.name, params.type, params);
+      net.setInput(input);
+      const cv::Mat out = net.forward().clone();
+      if (type) *type = net.getLayer("softmax")->type;
+      return out;
+    };
+    std::string type;
+    const cv::Mat got = run(DnnLayers::in_float(), &type);
+    const cv::Mat expected = run(DnnLayers::opencv(), nullptr);
+    EXPECT_EQ(type, "KeyfleetSoftmax");
+    ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
+    EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), c.log ? 1e-4 : 1e-6)
+        << "axis " << c.axis << (c.log ? ", log" : "");
   }
 }
 

@@ -12,6 +12,7 @@
 
 #include "bf16_product.hpp"
 #include "convolution_3x3.hpp"
+#include "dense_layers.hpp"
 #include "depthwise_avx2.hpp"
 #include "pointwise_convolution.hpp"
 #include "selu_avx2.hpp"
@@ -486,7 +487,9 @@ DnnLayersScope::DnnLayersScope(DnnLayers layers) : lock_(scope_mutex()) {
       {layers.vectorised_power, {"Power", VectorisedPowerLayer::create}},
       {layers.depthwise || layers.pointwise || layers.dense_3x3,
        {"Convolution", create_convolution}},
-      {layers.subpixel_deconvolution, {"Deconvolution", create_deconvolution}}};
+      {layers.subpixel_deconvolution, {"Deconvolution", create_deconvolution}},
+      {layers.inner_product, {"InnerProduct", create_inner_product}},
+      {layers.vectorised_softmax, {"Softmax", create_softmax}}};
   try {
     for (const auto& [use, layer] : chosen)
       if (use) {

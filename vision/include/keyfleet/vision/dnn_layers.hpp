@@ -22,6 +22,8 @@
 // - power, (shift + scale x)^power (what OpenCV's importer makes of PP-OCR's multiplications and
 //   additions by a constant, the learnable affine blocks after each activation): OpenCV 4.6
 //   computes it one element at a time; this one in SIMD where power is 1.
+// - inner product with constant weights (PP-OCR's recogniser's last MatMul) as the same matrix
+//   product, and softmax over the last axis with OpenCV's vectorised exp (dense_layers.hpp).
 // Each stand-in convolution takes the whole chain of activations OpenCV fuses into it (PP-OCR's
 // hard swish, scale and shift) and applies it to each output plane while it is in cache.
 // The three product stand-ins need x86-64 with AVX2 and FMA (elsewhere OpenCV's layers stay); any
@@ -47,12 +49,18 @@ struct DnnLayers {
   bool dense_3x3 = true;
   bool vectorised_hard_swish = true;
   bool vectorised_power = true;
-  static DnnLayers opencv() { return {false, false, false, false, false, false, false, false}; }
+  bool inner_product = true;
+  bool vectorised_softmax = true;
+  static DnnLayers opencv() {
+    return {false, false, false, false, false, false, false, false, false, false};
+  }
   // All stand-ins in float: OpenCV's outputs to float rounding, on any CPU.
-  static DnnLayers in_float() { return {true, true, true, true, false, true, true, true}; }
+  static DnnLayers in_float() {
+    return {true, true, true, true, false, true, true, true, true, true};
+  }
   bool any() const {
     return vectorised_selu || depthwise || subpixel_deconvolution || pointwise || dense_3x3 ||
-           vectorised_hard_swish || vectorised_power;
+           vectorised_hard_swish || vectorised_power || inner_product || vectorised_softmax;
   }
 };
 

@@ -1,0 +1,16 @@
+#pragma once
+// Stand-ins for two of OpenCV 4.6's layers that end PP-OCR's recogniser (dnn_layers.cpp registers
+// them): its inner product (a MatMul by constant weights: 40 time steps x 120 features x 6625
+// characters) as the AVX2 matrix product (avx2_product.hpp), about 16 multiply-adds a ns in
+// OpenCV's; and the softmax with OpenCV's vectorised exp (cv::hal::exp32f)
+// where OpenCV's takes one element at a time. Each returns OpenCV's own layer for what it does not
+// take: the inner product where the CPU lacks AVX2 and FMA or where it has no constant weights; the
+// softmax (at run time) over another axis or as log-softmax. Internal to keyfleet_vision.
+#include <opencv2/dnn.hpp>
+
+namespace keyfleet::vision {
+
+cv::Ptr<cv::dnn::Layer> create_inner_product(cv::dnn::LayerParams& params);
+cv::Ptr<cv::dnn::Layer> create_softmax(cv::dnn::LayerParams& params);
+
+}  // namespace keyfleet::vision
