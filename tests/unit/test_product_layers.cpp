@@ -443,6 +443,39 @@ TEST(PowerStandIn, ComputesWhatOpenCvsPowerLayerDoes) {
     EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-5)
         << "power " << power << ", scale " << scale << ", shift " << shift;
   }
+  // After a convolution that stays OpenCV's (stride 2), which folds a Power layer's scale and
+  // shift into its weights: the stand-in, a PowerLayer too, is folded the same way.
+  RandomLayer l(rng, {4, 6, 8, 8, true, false}, {6, 4, 3, 3});
+  const auto folded = [&](DnnLayers layers, std::string* type) {
+    cv::dnn::LayerParams conv;
+    conv.name = "conv";
+    conv.type = "Convolution";
+    conv.set("num_output", 6);
+    const int kernel[] = {3, 3}, strides[] = {2, 2}, pads[] = {1, 1, 1, 1};
+    conv.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
+    conv.set("stride", cv::dnn::DictValue::arrayInt(strides, 2));
+    conv.set("pad", cv::dnn::DictValue::arrayInt(pads, 4));
+    conv.set("bias_term", true);
+    conv.blobs = {l.weights.clone(), l.bias.clone()};
+    cv::dnn::LayerParams power;
+    power.name = "power";
+    power.type = "Power";
+    power.set("scale", 0.5f);
+    power.set("shift", -1.f);
+    std::optional<DnnLayersScope> scope;
+    if (layers.any()) scope.emplace(layers);
+    cv::dnn::Net net;
+    net.addLayerToPrev(conv.name, conv.type, conv);
+    net.addLayerToPrev(power.name, power.type, power);
+    net.setInput(l.input);
+    const cv::Mat out = net.forward().clone();
+    if (type) *type = net.getLayer("conv")->type;
+    return out;
+  };
+  std::string conv_type;
+  const cv::Mat got = folded(DnnLayers::in_float(), &conv_type);
+  EXPECT_EQ(conv_type, "Convolution");
+  EXPECT_LT(cv::norm(got, folded(DnnLayers::opencv(), nullptr), cv::NORM_INF), 1e-5);
 }
 
 // The inner product stand-in against OpenCV's InnerProduct with constant weights: PP-OCR's
