@@ -12,6 +12,7 @@
 #include <fstream>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "generated_views.hpp"
 #include "keyfleet/common/error.hpp"
@@ -112,11 +113,12 @@ TEST(ShippedMiniNet, FloatStandInLayersGiveOpenCvsLogits) {
   const cv::Mat blob = cv::dnn::blobFromImage(frame, 1 / 255.0, size, cv::Scalar::all(127.5));
   cv::setNumThreads(1);
   const cv::Mat opencv = shipped_logits(blob, DnnLayers::opencv());
-  for (const DnnLayers layers :
-       {DnnLayers{true, false, false, false, false, false},
-        DnnLayers{false, true, false, false, false, false},
-        DnnLayers{false, false, true, false, false, false},
-        DnnLayers{false, false, false, true, false, false}, DnnLayers::in_float()})
+  // Each of MiniNet's stand-ins alone (the others OpenCV's), then all of them.
+  std::vector<DnnLayers> alone(4, DnnLayers::opencv());
+  alone[0].vectorised_selu = alone[1].depthwise = alone[2].subpixel_deconvolution =
+      alone[3].pointwise = true;
+  alone.push_back(DnnLayers::in_float());
+  for (const DnnLayers layers : alone)
     EXPECT_LT(cv::norm(opencv, shipped_logits(blob, layers), cv::NORM_INF), 1e-3)
         << "selu " << layers.vectorised_selu << ", depthwise " << layers.depthwise << ", sub-pixel "
         << layers.subpixel_deconvolution << ", pointwise " << layers.pointwise;

@@ -165,8 +165,9 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
     if (i) std::printf("compare %zu: %s\n", i, path.c_str());
     const std::string name = i ? "compare " + std::to_string(i) : "model";
     variants.push_back({path, name + ", OpenCV layers", vision::DnnLayers::opencv()});
-    variants.push_back({path, name + ", SELU + depthwise",
-                        vision::DnnLayers{true, true, false, false, false, false}});
+    vision::DnnLayers selu_depthwise = vision::DnnLayers::opencv();
+    selu_depthwise.vectorised_selu = selu_depthwise.depthwise = true;
+    variants.push_back({path, name + ", SELU + depthwise", selu_depthwise});
     if (vision::bfloat16_products_supported()) {
       variants.push_back({path, name + ", all stand-ins, float", vision::DnnLayers::in_float()});
       variants.push_back({path, name + ", all stand-ins, bfloat16", vision::DnnLayers{}});
