@@ -267,18 +267,22 @@ TEST(Convolution3x3StandIn, MatchesOpenCvsConvolution) {
   EXPECT_EQ(type, "Convolution");
 }
 
-// The depthwise stand-in against OpenCV's convolution: PP-OCR's 3x3 and 5x5 kernels, MiniNet's
-// dilated ones, no padding, planes narrower than the kernel's reach and widths either side of the
-// SIMD paths (8 and 32 columns), a zero tap, with and without bias.
+// The depthwise stand-in against OpenCV's convolution: PP-OCR's 3x3 and 5x5 kernels (stride 2 down
+// columns too, as its recogniser), MiniNet's dilated ones, no padding, planes narrower than the
+// kernel's reach and widths either side of the SIMD paths (8 and 32 columns), a zero tap, with and
+// without bias.
 TEST(DepthwiseStandIn, MatchesOpenCvsConvolution) {
   struct Case {
     int kernel, dilation, pad, h, w;
     bool bias;
+    int stride_down = 1;  // PP-OCR's recogniser: 5x5 with stride (2, 1)
   };
   const std::vector<Case> cases = {
-      {3, 1, 1, 9, 40, true}, {5, 1, 2, 7, 33, true}, {3, 2, 2, 6, 70, false},
-      {3, 4, 4, 5, 31, true}, {5, 1, 0, 8, 12, true}, {3, 1, 1, 1, 1, true},
-      {5, 1, 2, 2, 3, false}, {3, 1, 1, 4, 8, true},  {7, 1, 3, 16, 65, true}};
+      {3, 1, 1, 9, 40, true},    {5, 1, 2, 7, 33, true},     {3, 2, 2, 6, 70, false},
+      {3, 4, 4, 5, 31, true},    {5, 1, 0, 8, 12, true},     {3, 1, 1, 1, 1, true},
+      {5, 1, 2, 2, 3, false},    {3, 1, 1, 4, 8, true},      {7, 1, 3, 16, 65, true},
+      {5, 1, 2, 6, 40, true, 2}, {5, 1, 2, 7, 41, false, 2}, {3, 1, 1, 1, 9, true, 2},
+      {3, 1, 0, 9, 17, true, 3}};
   cv::RNG rng(17);
   for (const Case& c : cases) {
     const int channels = 6;
@@ -291,8 +295,9 @@ TEST(DepthwiseStandIn, MatchesOpenCvsConvolution) {
       params.set("num_output", channels);
       params.set("group", channels);
       const int kernel[] = {c.kernel, c.kernel}, dilation[] = {c.dilation, c.dilation},
-                pads[] = {c.pad, c.pad, c.pad, c.pad};
+                pads[] = {c.pad, c.pad, c.pad, c.pad}, stride[] = {c.stride_down, 1};
       params.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
+      params.set("stride", cv::dnn::DictValue::arrayInt(stride, 2));
       params.set("dilation", cv::dnn::DictValue::arrayInt(dilation, 2));
       params.set("pad", cv::dnn::DictValue::arrayInt(pads, 4));
       return run_layer(params, l.input, l.weights, l.bias, false, layers, type);

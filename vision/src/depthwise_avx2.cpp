@@ -77,14 +77,16 @@ bool depthwise_avx2_supported() {
 __attribute__((target("avx2,fma")))
 #endif
 void depthwise_plane_avx2(const float* src, int h, int w, const float* kernel, int kh, int kw,
-                          int dh, int dw, int pt, int pl, float bias, float* dst, int ho, int wo) {
+                          int dh, int dw, int pt, int pl, int sh, float bias, float* dst, int ho,
+                          int wo) {
 #ifdef KEYFLEET_DEPTHWISE_X86
-  // Output (y, x) reads bordered (y + ky dh, x + kx dw): rows up to ho - 1 + (kh - 1) dh, columns
+  // Output (y, x) reads bordered (y sh + ky dh, x + kx dw): rows up to (ho - 1) sh + (kh - 1) dh,
+  // columns
   // up to the last vector's end plus (kw - 1) dw; the input needs at least h + pt rows and
   // w + pl columns of it.
   const int vector_columns = (wo + 7) / 8 * 8;
   const int width = std::max(vector_columns + (kw - 1) * dw, w + pl);
-  const int height = std::max(ho + (kh - 1) * dh, h + pt);
+  const int height = std::max((ho - 1) * sh + (kh - 1) * dh + 1, h + pt);
   thread_local std::vector<float> bordered;
   bordered.resize(std::size_t(height) * width);
   border(src, h, w, pt, pl, height, width, bordered.data());
@@ -95,7 +97,7 @@ void depthwise_plane_avx2(const float* src, int h, int w, const float* kernel, i
       if (kernel[ky * kw + kx] != 0.f)
         taps.push_back({ky * dh * width + kx * dw, kernel[ky * kw + kx]});
   for (int y = 0; y < ho; ++y) {
-    const float* in = bordered.data() + std::size_t(y) * width;
+    const float* in = bordered.data() + std::size_t(y) * sh * width;
     float* out = dst + std::size_t(y) * wo;
     int x = 0;
     for (; x + 32 <= wo; x += 32) vectors<4>(taps, in + x, bias, out + x, 8);
@@ -103,7 +105,7 @@ void depthwise_plane_avx2(const float* src, int h, int w, const float* kernel, i
   }
 #else
   (void)src, (void)h, (void)w, (void)kernel, (void)kh, (void)kw, (void)dh, (void)dw, (void)pt;
-  (void)pl, (void)bias, (void)dst, (void)ho, (void)wo;
+  (void)pl, (void)sh, (void)bias, (void)dst, (void)ho, (void)wo;
 #endif
 }
 

@@ -11,10 +11,11 @@ namespace keyfleet::vision {
 bool depthwise_avx2_supported();
 
 // dst (ho x wo) = bias + sum over taps (ky, kx) of kernel[ky * kw + kx] times src (h x w) at
-// (y - pt + ky dh, x - pl + kx dw), zero outside src. Taps of weight 0 are skipped; the taps are
-// summed in the order ky, kx (as the portable code does), over a copy of the plane with a zero
-// border. Requires depthwise_avx2_supported().
+// (y sh - pt + ky dh, x - pl + kx dw), zero outside src (sh: the stride down columns; along rows
+// it is 1). Taps of weight 0 are skipped; the taps are summed in the order ky, kx (as the portable
+// code does), over a copy of the plane with a zero border. Requires depthwise_avx2_supported().
 void depthwise_plane_avx2(const float* src, int h, int w, const float* kernel, int kh, int kw,
-                          int dh, int dw, int pt, int pl, float bias, float* dst, int ho, int wo);
+                          int dh, int dw, int pt, int pl, int sh, float bias, float* dst, int ho,
+                          int wo);
 
 }  // namespace keyfleet::vision

@@ -198,8 +198,9 @@ class ActivationChain final : public cv::dnn::ActivationLayer {
   std::vector<cv::Ptr<cv::dnn::ActivationLayer>> layers_;
 };
 
-// Depthwise convolution, stride 1, any kernel, dilation and (zero) padding; NCHW float. With AVX2
-// and FMA a row's taps are summed in registers (depthwise_avx2.hpp), else a pass per tap.
+// Depthwise convolution, stride 1 along rows (any stride down columns: PP-OCR's recogniser halves
+// its height so), any kernel, dilation and (zero) padding; NCHW float. With AVX2 and FMA a row's
+// taps are summed in registers (depthwise_avx2.hpp), else a pass per tap.
 class DepthwiseLayer final : public cv::dnn::Layer {
  public:
   DepthwiseLayer(const cv::dnn::LayerParams& params, const cv::dnn::BaseConvolutionLayer& geometry)
@@ -210,7 +211,8 @@ class DepthwiseLayer final : public cv::dnn::Layer {
         pt_(int(geometry.pads_begin[0])),
         pl_(int(geometry.pads_begin[1])),
         pb_(int(geometry.pads_end[0])),
-        pr_(int(geometry.pads_end[1])) {
+        pr_(int(geometry.pads_end[1])),
+        sh_(int(geometry.strides[0])) {
     setParamsFrom(params);
     type = "KeyfleetDepthwise";  // not "Convolution": OpenCV's fusions expect its own class
     weights_ = blobs[0].reshape(1, blobs[0].size[0]);  // channels x (kh kw)
@@ -225,7 +227,7 @@ class DepthwiseLayer final : public cv::dnn::Layer {
     const cv::Mat& w = params.blobs[0];
     return geometry.kernel_size.size() == 2 && geometry.padMode.empty() && w.size[1] == 1 &&
            params.get<int>("group", 1) == w.size[0] && geometry.numOutput == w.size[0] &&
-           geometry.strides[0] == 1 && geometry.strides[1] == 1 &&
+           geometry.strides.size() == 2 && geometry.strides[0] >= 1 && geometry.strides[1] == 1 &&
            (params.blobs.size() < 2 || int(params.blobs[1].total()) == w.size[0]);
   }
 
@@ -234,8 +236,8 @@ class DepthwiseLayer final : public cv::dnn::Layer {
                        std::vector<cv::dnn::MatShape>&) const override {
     const cv::dnn::MatShape& in = inputs.at(0);
     CV_Assert(in.size() == 4 && in[1] == weights_.rows);
-    outputs = {
-        {in[0], in[1], in[2] + pt_ + pb_ - dh_ * (kh_ - 1), in[3] + pl_ + pr_ - dw_ * (kw_ - 1)}};
+    outputs = {{in[0], in[1], (in[2] + pt_ + pb_ - dh_ * (kh_ - 1) - 1) / sh_ + 1,
+                in[3] + pl_ + pr_ - dw_ * (kw_ - 1)}};
     return false;
   }
 
@@ -271,7 +273,7 @@ class DepthwiseLayer final : public cv::dnn::Layer {
   void plane(const float* src, int h, int w, int channel, float* dst, int ho, int wo) const {
     if (depthwise_avx2_supported()) {
       depthwise_plane_avx2(src, h, w, weights_.ptr<float>(channel), kh_, kw_, dh_, dw_, pt_, pl_,
-                           bias_.empty() ? 0.f : bias_.at<float>(channel), dst, ho, wo);
+                           sh_, bias_.empty() ? 0.f : bias_.at<float>(channel), dst, ho, wo);
       return;
     }
     std::fill(dst, dst + std::size_t(ho) * wo, bias_.empty() ? 0.f : bias_.at<float>(channel));
@@ -281,14 +283,15 @@ class DepthwiseLayer final : public cv::dnn::Layer {
       for (int kx = 0; kx < kw_; ++kx) {
         const float weight = kernel[ky * kw_ + kx];
         if (weight == 0.f) continue;  // e.g. the added rows of export.py's squared kernels
-        // Output (y, x) reads input (y - pt + ky dh, x - pl + kx dw): the rows and columns
+        // Output (y, x) reads input (y sh - pt + ky dh, x - pl + kx dw): the rows and columns
         // where that lies inside the input (outside is zero padding, which adds nothing).
         const int dy = ky * dh_ - pt_, dx = kx * dw_ - pl_;
-        const int y0 = std::max(0, -dy), y1 = std::min(ho, h - dy);
+        const int y0 = dy >= 0 ? 0 : (-dy + sh_ - 1) / sh_;
+        const int y1 = h - 1 - dy < 0 ? 0 : std::min(ho, (h - 1 - dy) / sh_ + 1);
         const int x0 = std::max(0, -dx), x1 = std::min(wo, w - dx);
         const cv::v_float32 vw = cv::vx_setall_f32(weight);
         for (int y = y0; y < y1; ++y) {
-          const float* s = src + std::size_t(y + dy) * w + dx;
+          const float* s = src + std::size_t(y * sh_ + dy) * w + dx;
           float* d = dst + std::size_t(y) * wo;
           int x = x0;
           for (; x + kLanes <= x1; x += kLanes)
@@ -298,7 +301,7 @@ class DepthwiseLayer final : public cv::dnn::Layer {
       }
   }
 
-  int kh_, kw_, dh_, dw_, pt_, pl_, pb_, pr_;
+  int kh_, kw_, dh_, dw_, pt_, pl_, pb_, pr_, sh_;
   cv::Mat weights_, bias_;
   ActivationChain activations_;
 };
