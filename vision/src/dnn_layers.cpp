@@ -184,7 +184,6 @@ class ActivationChain final : public cv::dnn::ActivationLayer {
     layers_.push_back(layer);
     return true;
   }
-  bool empty() const { return layers_.empty(); }
   // Null where there is nothing to apply: what the kernels take.
   const cv::dnn::ActivationLayer* get() const { return layers_.empty() ? nullptr : this; }
 
