@@ -235,7 +235,10 @@ class DepthwiseLayer final : public cv::dnn::Layer {
                        std::vector<cv::dnn::MatShape>&) const override {
     const cv::dnn::MatShape& in = inputs.at(0);
     CV_Assert(in.size() == 4 && in[1] == weights_.rows);
-    outputs = {{in[0], in[1], (in[2] + pt_ + pb_ - dh_ * (kh_ - 1) - 1) / sh_ + 1,
+    // What the stride keeps of the padded height; none of none (OpenCV's importer asks about
+    // empty planes, and a pooling branch beside this one answers 0).
+    const int height = in[2] + pt_ + pb_ - dh_ * (kh_ - 1);
+    outputs = {{in[0], in[1], height <= 0 ? 0 : (height - 1) / sh_ + 1,
                 in[3] + pl_ + pr_ - dw_ * (kw_ - 1)}};
     return false;
   }
