@@ -30,28 +30,36 @@ struct Geometry {
   int kernel = 3, stride = 2, pad = 1, adjust = 1;
 };
 
-// One layer (then a SELU when `selu`) through OpenCV DNN, with or without keyfleet's stand-ins.
-// `type`: the class of layer that ran it.
-cv::Mat run_layer(cv::dnn::LayerParams params, const cv::Mat& input, const cv::Mat& weights,
-                  const cv::Mat& bias, bool selu, DnnLayers layers, std::string* type) {
+// A net of the one layer `params` (named "layer"), then a layer of type `then` where given,
+// through OpenCV DNN with or without keyfleet's stand-ins; `type`: the type of the layer that ran
+// `params`, `class_name`: its C++ class (a stand-in may keep OpenCV's type name).
+cv::Mat run_one_layer(cv::dnn::LayerParams params, const cv::Mat& input, DnnLayers layers,
+                      std::string* type, const char* then = nullptr,
+                      std::string* class_name = nullptr) {
   params.name = "layer";
-  params.blobs = {weights};
-  if (!bias.empty()) params.blobs.push_back(bias);
-  params.set("bias_term", !bias.empty());
   std::optional<DnnLayersScope> scope;
   if (layers.any()) scope.emplace(layers);
   cv::dnn::Net net;
   net.addLayerToPrev(params.name, params.type, params);
-  if (selu) {
-    cv::dnn::LayerParams activation;
-    activation.type = "Selu";
-    activation.name = "selu";
-    net.addLayerToPrev(activation.name, activation.type, activation);
+  if (then) {
+    cv::dnn::LayerParams next;
+    next.type = next.name = then;
+    net.addLayerToPrev(next.name, next.type, next);
   }
   net.setInput(input);
   const cv::Mat out = net.forward().clone();
   if (type) *type = net.getLayer(params.name)->type;
+  if (class_name) *class_name = typeid(*net.getLayer(params.name)).name();
   return out;
+}
+
+// One layer with these weights and bias (then a SELU when `selu`).
+cv::Mat run_layer(cv::dnn::LayerParams params, const cv::Mat& input, const cv::Mat& weights,
+                  const cv::Mat& bias, bool selu, DnnLayers layers, std::string* type) {
+  params.blobs = {weights};
+  if (!bias.empty()) params.blobs.push_back(bias);
+  params.set("bias_term", !bias.empty());
+  return run_one_layer(params, input, layers, type, selu ? "Selu" : nullptr);
 }
 
 cv::Mat deconvolve(const cv::Mat& input, const cv::Mat& weights, const cv::Mat& bias, Geometry g,
@@ -425,25 +433,16 @@ TEST(PowerStandIn, ComputesWhatOpenCvsPowerLayerDoes) {
   for (const auto& [power, scale, shift] :
        {std::tuple{1.f, 0.37f, -1.25f}, std::tuple{1.f, -2.f, 0.f}, std::tuple{2.f, 0.5f, 1.f},
         std::tuple{0.5f, 1.f, 0.25f}}) {
-    const auto run = [&](DnnLayers layers, std::string* type) {
-      cv::dnn::LayerParams params;
-      params.name = "power";
-      params.type = "Power";
-      params.set("power", power);
-      params.set("scale", scale);
-      params.set("shift", shift);
-      std::optional<DnnLayersScope> scope;
-      if (layers.any()) scope.emplace(layers);
-      cv::dnn::Net net;
-      net.addLayerToPrev(params.name, params.type, params);
-      net.setInput(input);
-      const cv::Mat out = net.forward().clone();
-      if (type) *type = typeid(*net.getLayer("power")).name();
-      return out;
-    };
+    cv::dnn::LayerParams params;
+    params.type = "Power";
+    params.set("power", power);
+    params.set("scale", scale);
+    params.set("shift", shift);
     std::string opencv_class, stand_in_class;
-    const cv::Mat expected = run(DnnLayers::opencv(), &opencv_class);
-    const cv::Mat got = run(DnnLayers::in_float(), &stand_in_class);
+    const cv::Mat expected =
+        run_one_layer(params, input, DnnLayers::opencv(), nullptr, nullptr, &opencv_class);
+    const cv::Mat got =
+        run_one_layer(params, input, DnnLayers::in_float(), nullptr, nullptr, &stand_in_class);
     EXPECT_NE(stand_in_class, opencv_class) << "the stand-in did not run";
     EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-5)
         << "power " << power << ", scale " << scale << ", shift " << shift;
@@ -505,28 +504,17 @@ TEST(InnerProductStandIn, MatchesOpenCvsInnerProduct) {
     cv::Mat weights(c.outputs, depth, CV_32F), bias(1, c.outputs, CV_32F);
     rng.fill(weights, cv::RNG::UNIFORM, -1, 1);
     rng.fill(bias, cv::RNG::UNIFORM, -1, 1);
-    const auto run = [&](DnnLayers layers, std::string* type) {
-      cv::dnn::LayerParams params;
-      params.name = "fc";
-      params.type = "InnerProduct";
-      params.set("num_output", c.outputs);
-      params.set("axis", c.axis);
-      params.set("bias_term", c.bias);
-      params.set("transB", c.trans_b);
-      params.blobs = {weights.clone()};
-      if (c.bias) params.blobs.push_back(bias.clone());
-      std::optional<DnnLayersScope> scope;
-      if (layers.any()) scope.emplace(layers);
-      cv::dnn::Net net;
-      net.addLayerToPrev(params.name, params.type, params);
-      net.setInput(input);
-      const cv::Mat out = net.forward().clone();
-      if (type) *type = net.getLayer("fc")->type;
-      return out;
-    };
+    cv::dnn::LayerParams params;
+    params.type = "InnerProduct";
+    params.set("num_output", c.outputs);
+    params.set("axis", c.axis);
+    params.set("bias_term", c.bias);
+    params.set("transB", c.trans_b);
+    params.blobs = {weights};
+    if (c.bias) params.blobs.push_back(bias);
     std::string type;
-    const cv::Mat got = run(DnnLayers::in_float(), &type);
-    const cv::Mat expected = run(DnnLayers::opencv(), nullptr);
+    const cv::Mat got = run_one_layer(params, input, DnnLayers::in_float(), &type);
+    const cv::Mat expected = run_one_layer(params, input, DnnLayers::opencv(), nullptr);
     EXPECT_EQ(type, "KeyfleetInnerProduct");
     ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
     // Sums of `depth` products of magnitude <= 2, in another order than OpenCV's.
@@ -552,24 +540,13 @@ TEST(SoftmaxStandIn, MatchesOpenCvsSoftmax) {
   for (const Case& c : cases) {
     cv::Mat input(c.input, CV_32F);
     rng.fill(input, cv::RNG::UNIFORM, -c.scale, c.scale);
-    const auto run = [&](DnnLayers layers, std::string* type) {
-      cv::dnn::LayerParams params;
-      params.name = "softmax";
-      params.type = "Softmax";
-      params.set("axis", c.axis);
-      params.set("log_softmax", c.log);
-      std::optional<DnnLayersScope> scope;
-      if (layers.any()) scope.emplace(layers);
-      cv::dnn::Net net;
-      net.addLayerToPrev(params.name, params.type, params);
-      net.setInput(input);
-      const cv::Mat out = net.forward().clone();
-      if (type) *type = net.getLayer("softmax")->type;
-      return out;
-    };
+    cv::dnn::LayerParams params;
+    params.type = "Softmax";
+    params.set("axis", c.axis);
+    params.set("log_softmax", c.log);
     std::string type;
-    const cv::Mat got = run(DnnLayers::in_float(), &type);
-    const cv::Mat expected = run(DnnLayers::opencv(), nullptr);
+    const cv::Mat got = run_one_layer(params, input, DnnLayers::in_float(), &type);
+    const cv::Mat expected = run_one_layer(params, input, DnnLayers::opencv(), nullptr);
     EXPECT_EQ(type, "KeyfleetSoftmax");
     ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
     EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), c.log ? 1e-4 : 1e-6)

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "avx2_product.hpp"
+#include "layer_io.hpp"
 #include "product_operands.hpp"
 
 namespace keyfleet::vision {
@@ -59,12 +60,9 @@ class InnerProductLayer final : public cv::dnn::Layer {
 
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
                cv::OutputArrayOfArrays) override {
-    std::vector<cv::Mat> inputs, outputs;
-    inputs_arr.getMatVector(inputs);
-    outputs_arr.getMatVector(outputs);
-    const cv::Mat& in = inputs.at(0);
-    cv::Mat& out = outputs.at(0);
-    CV_Assert(in.type() == CV_32F && in.isContinuous() && out.isContinuous());
+    LayerIo io = float_layer_io(inputs_arr, outputs_arr);
+    const cv::Mat& in = io.in;
+    cv::Mat& out = io.out;
     const int axis = normalised_axis(axis_, in.dims);
     const int rows = cv::dnn::total(cv::dnn::shape(in), 0, axis), depth = weights_.cols;
     const ProductBlock block = float_product_block(rows, outputs_);
@@ -146,13 +144,10 @@ class SoftmaxLayer final : public cv::dnn::Layer {
 
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
                cv::OutputArrayOfArrays) override {
-    std::vector<cv::Mat> inputs, outputs;
-    inputs_arr.getMatVector(inputs);
-    outputs_arr.getMatVector(outputs);
-    const cv::Mat& in = inputs.at(0);
-    cv::Mat& out = outputs.at(0);
-    CV_Assert(in.type() == CV_32F && in.isContinuous() && out.isContinuous() &&
-              in.total() == out.total());
+    LayerIo io = float_layer_io(inputs_arr, outputs_arr);
+    const cv::Mat& in = io.in;
+    cv::Mat& out = io.out;
+    CV_Assert(in.total() == out.total());
     const int axis = normalised_axis(axis_, in.dims);
     const int outer = cv::dnn::total(cv::dnn::shape(in), 0, axis), length = in.size[axis],
               inner = cv::dnn::total(cv::dnn::shape(in), axis + 1);

@@ -14,6 +14,7 @@
 #include "convolution_3x3.hpp"
 #include "dense_layers.hpp"
 #include "depthwise_avx2.hpp"
+#include "layer_io.hpp"
 #include "pointwise_convolution.hpp"
 #include "selu_avx2.hpp"
 #include "subpixel_deconvolution.hpp"
@@ -250,12 +251,9 @@ class DepthwiseLayer final : public cv::dnn::Layer {
 
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
                cv::OutputArrayOfArrays) override {
-    std::vector<cv::Mat> inputs, outputs;
-    inputs_arr.getMatVector(inputs);
-    outputs_arr.getMatVector(outputs);
-    const cv::Mat& in = inputs.at(0);
-    cv::Mat& out = outputs.at(0);
-    CV_Assert(in.type() == CV_32F && in.isContinuous() && out.isContinuous());
+    LayerIo io = float_layer_io(inputs_arr, outputs_arr);
+    const cv::Mat& in = io.in;
+    cv::Mat& out = io.out;
     const int channels = in.size[1];
     const std::size_t out_plane = std::size_t(out.size[2]) * out.size[3];
     const cv::dnn::ActivationLayer* activation = activations_.get();
@@ -333,12 +331,10 @@ class ProductLayer : public cv::dnn::Layer {
 
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
                cv::OutputArrayOfArrays) override {
-    std::vector<cv::Mat> inputs, outputs;
-    inputs_arr.getMatVector(inputs);
-    outputs_arr.getMatVector(outputs);
-    const cv::Mat& in = inputs.at(0);
-    cv::Mat& out = outputs.at(0);  // may be a slice of a concatenation: images apart
-    CV_Assert(in.type() == CV_32F && in.isContinuous() && out.type() == CV_32F);
+    // The output may be a slice of a concatenation: images apart.
+    LayerIo io = float_layer_io(inputs_arr, outputs_arr, false);
+    const cv::Mat& in = io.in;
+    cv::Mat& out = io.out;
     for (int n = 0; n < in.size[0]; ++n)
       run(in.ptr<float>(n), in.size[2], in.size[3], out.ptr<float>(n));
   }
