@@ -70,29 +70,23 @@ class InnerProductLayer final : public cv::dnn::Layer {
     packed_block_ = block;
     const int row_blocks = (rows + block.rows - 1) / block.rows;
     const int columns = round_up(outputs_, block.columns);
-    // The input as the kernel's left operand: [row block][k][row in block], zero past the rows.
-    input_.assign(std::size_t(row_blocks) * depth * block.rows, 0.f);
+    // The input as the kernel's left operand, laid out as the convolutions' weights are (one
+    // tap; zero past the rows).
     const float* x = in.ptr<float>();
-    for (int m = 0; m < rows; ++m)
-      for (int k = 0; k < depth; ++k)
-        input_[(std::size_t(m / block.rows) * depth + k) * block.rows + m % block.rows] =
-            x[std::size_t(m) * depth + k];
-    products_.resize(std::size_t(row_blocks) * block.rows * columns);
-    for (int m = 0; m < row_blocks * block.rows; ++m) {
-      float* row = products_.data() + std::size_t(m) * columns;
-      if (bias_.empty())
-        std::fill(row, row + columns, 0.f);
-      else
-        std::copy_n(bias_.ptr<float>(), outputs_, row),
-            std::fill(row + outputs_, row + columns, 0.f);
-    }
+    input_.pack(block, 1, depth, rows, false,
+                [&](int m, int k, int) { return x[std::size_t(m) * depth + k]; });
+    // The products start from the bias (zero past the outputs).
+    products_.assign(std::size_t(row_blocks) * block.rows * columns, 0.f);
+    for (int m = 0; m < row_blocks * block.rows && !bias_.empty(); ++m)
+      std::copy_n(bias_.ptr<float>(), outputs_, products_.data() + std::size_t(m) * columns);
     const int chunk = summed_chunk(depth, 1, block.columns), zero_shift = 0;
     cv::parallel_for_(cv::Range(0, columns / block.columns), [&](const cv::Range& range) {
       for (int cb = range.start; cb < range.end; ++cb)
         for (int k0 = 0; k0 < depth; k0 += chunk)
           for (int rb = 0; rb < row_blocks; ++rb) {
             const int n0 = cb * block.columns;
-            product_block(block, 1, input_.data() + (std::size_t(rb) * depth + k0) * block.rows, 0,
+            product_block(block, 1,
+                          input_.floats.data() + (std::size_t(rb) * depth + k0) * block.rows, 0,
                           transposed_.data() + std::size_t(k0) * columns + n0, &zero_shift,
                           std::min(chunk, depth - k0), std::size_t(columns), nullptr,
                           products_.data() + std::size_t(rb) * block.rows * columns + n0,
@@ -119,7 +113,8 @@ class InnerProductLayer final : public cv::dnn::Layer {
   int axis_, outputs_;
   cv::Mat weights_, bias_;
   ProductBlock packed_block_{0, 0};
-  std::vector<float> transposed_, input_, products_;
+  PackedWeights input_;
+  std::vector<float> transposed_, products_;
 };
 
 // Softmax (or log-softmax) over one axis: the maximum taken out, OpenCV's vectorised exp, the

@@ -3,8 +3,9 @@
 #include <opencv2/core/utility.hpp>
 
 #include <algorithm>
-#include <cstring>
 #include <vector>
+
+#include "product_operands.hpp"
 
 #if defined(__GNUC__) && defined(__x86_64__)
 #include <immintrin.h>
@@ -44,21 +45,6 @@ __attribute__((target("avx2,fma"))) inline void vectors(const std::vector<Tap>& 
   _mm256_maskstore_ps(out + 8 * (kVectors - 1), mask, sum[kVectors - 1]);
 }
 
-// The bordered plane: src at row pt and column pl, zero around it, `width` columns a row and
-// `height` rows (each written once).
-void border(const float* src, int h, int w, int pt, int pl, int height, int width, float* out) {
-  for (int r = 0; r < height; ++r) {
-    float* row = out + std::size_t(r) * width;
-    const int y = r - pt;
-    if (y < 0 || y >= h) {
-      std::fill(row, row + width, 0.f);
-      continue;
-    }
-    std::fill(row, row + pl, 0.f);
-    std::memcpy(row + pl, src + std::size_t(y) * w, sizeof(float) * std::size_t(w));
-    std::fill(row + pl + w, row + width, 0.f);
-  }
-}
 #endif
 
 }  // namespace
@@ -89,7 +75,7 @@ void depthwise_plane_avx2(const float* src, int h, int w, const float* kernel, i
   const int height = std::max((ho - 1) * sh + (kh - 1) * dh + 1, h + pt);
   thread_local std::vector<float> bordered;
   bordered.resize(std::size_t(height) * width);
-  border(src, h, w, pt, pl, height, width, bordered.data());
+  copy_with_zero_border(src, h, w, pt, pl, height, width, bordered.data());
   std::vector<Tap> taps;
   taps.reserve(std::size_t(kh) * kw);
   for (int ky = 0; ky < kh; ++ky)

@@ -6,6 +6,21 @@
 
 namespace keyfleet::vision {
 
+void copy_with_zero_border(const float* src, int h, int w, int top, int left, int rows, int width,
+                           float* out) {
+  for (int r = 0; r < rows; ++r) {
+    float* row = out + std::size_t(r) * width;
+    const int y = r - top;
+    if (y < 0 || y >= h) {
+      std::fill(row, row + width, 0.f);
+      continue;
+    }
+    std::fill(row, row + left, 0.f);
+    std::copy_n(src + std::size_t(y) * w, w, row + left);
+    std::fill(row + left + w, row + width, 0.f);
+  }
+}
+
 std::vector<float> padded_bias(const cv::Mat& bias, int outputs) {
   CV_Assert(bias.empty() || (bias.type() == CV_32F && int(bias.total()) == outputs));
   std::vector<float> padded(std::size_t((outputs + 23) / 24 * 24), 0.f);

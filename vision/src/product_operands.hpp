@@ -19,6 +19,11 @@ inline int round_up(int value, int multiple) {
 // The summed dimension's length: the input channels, or their pairs in bfloat16.
 inline int summed_length(int inputs, bool bfloat16) { return bfloat16 ? (inputs + 1) / 2 : inputs; }
 
+// `rows` rows of `width` floats into out: row r is src's row r - top (h rows of w floats) behind
+// `left` zeros and followed by zeros; rows outside src are zeros. Each float written once.
+void copy_with_zero_border(const float* src, int h, int w, int top, int left, int rows, int width,
+                           float* out);
+
 // One float per output, zero where `bias` is empty, padded with zeros to a multiple of 24 (whole
 // row blocks of every block shape).
 std::vector<float> padded_bias(const cv::Mat& bias, int outputs);

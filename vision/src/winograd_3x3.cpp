@@ -126,17 +126,9 @@ void Winograd3x3::transform_input(const float* src, int h, int w, int ty0, int t
     thread_local std::vector<float> bordered;
     bordered.resize(std::size_t(rows) * width);
     for (int c = channels.start; c < channels.end; ++c) {
-      for (int r = 0; r < rows; ++r) {
-        float* row = bordered.data() + std::size_t(r) * width;
-        const int y = 2 * ty0 - 1 + r;
-        if (y < 0 || y >= h) {
-          std::fill(row, row + width, 0.f);
-          continue;
-        }
-        row[0] = 0.f;
-        std::memcpy(row + 1, src + (std::size_t(c) * h + y) * w, sizeof(float) * std::size_t(w));
-        std::fill(row + 1 + w, row + width, 0.f);
-      }
+      // Bordered row r is source row 2 ty0 - 1 + r, behind one zero column.
+      copy_with_zero_border(src + std::size_t(c) * h * w, h, w, 1 - 2 * ty0, 1, rows, width,
+                            bordered.data());
       for (int ty = ty0; ty < ty1; ++ty)
         for (int tx = 0; tx < blocks_across_; tx += 8)
           input_blocks(
