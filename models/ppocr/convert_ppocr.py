@@ -547,9 +547,19 @@ def convert_recognizer(src, dst, width):
         "layernorm_affines_folded": fold_layernorm_affine(model),
         "matmul_add_to_gemm": matmul_add_to_gemm(model),
     }
+    stats["affines_folded"] = fold_output_affines(model)
     remove_dead_nodes(model)
     model = shape_inference.infer_shapes(model)
-    onnx.checker.check_model(model)  # the opset 9 graph stays valid ONNX
+    onnx.checker.check_model(model)  # valid opset 9 ONNX up to here
+    # Last, as in the detector: hard swish as one HardSwish node (opset 14), which OpenCV reads
+    # whatever the opset and keyfleet fuses into the convolution before it.  The file is then
+    # for OpenCV only, like the detector's; ONNX Runtime runs the ORIGINAL model.
+    stats["hard_swish_fused"] = fuse_hard_swish(model)
+    remove_dead_nodes(model)
+    produced = {t for node in model.graph.node for t in node.output}
+    stale = [v for v in model.graph.value_info if v.name not in produced]
+    for v in stale:
+        model.graph.value_info.remove(v)
     onnx.save(model, dst)
     return stats
 
