@@ -4,7 +4,8 @@
 //  - the PP-OCR parts at 1 and 2 OpenCV threads: the detector (whole detect(), its network pass
 //    alone, its DB post-processing alone) at each fetched input size on a real photo at its
 //    native 1280x720 and resized to 640x480; the recogniser per input width on a real word crop;
-//    the recogniser's work around its network (perspective cut, CTC decoding).
+//    the recogniser's work around its network (perspective cut, CTC decoding). The whole read and
+//    the recogniser also with the wide 1x1 convolutions in int8 (analysis.text.ppocr_int8).
 // Cases whose models (scripts/fetch_ppocr.sh) or data (KEYFLEET_DATA) are missing are skipped
 // with the reason. Prints figures; never pass/fail.
 // The recogniser's crops of one keyframe are read one at a time: OpenCV 4.6 cannot batch them.
@@ -77,9 +78,10 @@ std::optional<std::string> ppocr_file(const std::string& file, std::string& why)
   }
 }
 
-void read_keyframe(benchmark::State& state, const std::string& engine) {
+void read_keyframe(benchmark::State& state, const std::string& engine, bool int8 = false) {
   keyfleet::TextReadingConfig params;
   params.engine = engine;
+  params.ppocr.int8 = int8;
   std::unique_ptr<keyfleet::station::TextReader> reader;
   try {
     reader = keyfleet::station::make_text_reader(params);
@@ -212,7 +214,8 @@ struct RecognizerCase {
   std::string model;
 };
 
-std::optional<RecognizerCase> recognizer_case(benchmark::State& state, int width) {
+std::optional<RecognizerCase> recognizer_case(benchmark::State& state, int width,
+                                              bool int8 = false) {
   std::string why;
   const auto model = ppocr_file("ppocr_rec_w" + std::to_string(width) + ".onnx", why);
   const auto keys = ppocr_file("ppocr_keys_v1.txt", why);
@@ -231,14 +234,15 @@ std::optional<RecognizerCase> recognizer_case(benchmark::State& state, int width
   }
   const float w = float(c.crop.cols), h = float(c.crop.rows);
   c.quad = {cv::Point2f(0, 0), cv::Point2f(w, 0), cv::Point2f(w, h), cv::Point2f(0, h)};
-  c.recognizer = std::make_unique<PpocrRecognizer>(std::map<int, std::string>{{width, *model}},
-                                                   *keys, keyfleet::station::RecognizerOptions{});
+  c.recognizer =
+      std::make_unique<PpocrRecognizer>(std::map<int, std::string>{{width, *model}}, *keys,
+                                        keyfleet::station::RecognizerOptions{true, 0, int8});
   return c;
 }
 
 // arg 0 = the network's input width (160, 320, 640), arg 1 = OpenCV threads.
 void BM_PpocrRecognize(benchmark::State& state) {
-  auto c = recognizer_case(state, int(state.range(0)));
+  auto c = recognizer_case(state, int(state.range(0)), state.range(2) != 0);
   if (!c) return;
   cv::setNumThreads(int(state.range(1)));
   std::size_t words = 0;
@@ -295,6 +299,9 @@ BENCHMARK_CAPTURE(read_keyframe, mininet_tesseract, std::string("mininet+tessera
     ->Apply(timed)
     ->Iterations(5);
 BENCHMARK_CAPTURE(read_keyframe, ppocr, std::string("ppocr"))->Apply(timed)->Iterations(5);
+BENCHMARK_CAPTURE(read_keyframe, ppocr_int8, std::string("ppocr"), true)
+    ->Apply(timed)
+    ->Iterations(5);
 
 BENCHMARK(BM_PpocrDetect)
     ->ArgNames({"det640x480_0_det1280x736_1", "photo1280x720_0_resized640x480_1", "threads"})
@@ -312,8 +319,8 @@ BENCHMARK(BM_PpocrDbPostprocess)
     ->Apply(timed)
     ->Iterations(20);
 BENCHMARK(BM_PpocrRecognize)
-    ->ArgNames({"width", "threads"})
-    ->ArgsProduct({{160, 320, 640}, {1, 2}})
+    ->ArgNames({"width", "threads", "int8"})
+    ->ArgsProduct({{160, 320, 640}, {1, 2}, {0, 1}})
     ->Apply(timed)
     ->Iterations(10);
 BENCHMARK(BM_PpocrRecognizerOverhead)

@@ -42,9 +42,10 @@ std::optional<fs::path> ppocr_models() {
   GTEST_SKIP() << "the converted ppocr models are not in <build>/share/keyfleet/models/ppocr; " \
                   "run scripts/fetch_ppocr.sh to download and convert them"
 
-TextReadingConfig ppocr_config() {
+TextReadingConfig ppocr_config(bool int8 = true) {
   TextReadingConfig config;
   config.engine = "ppocr";
+  config.ppocr.int8 = int8;
   return config;
 }
 
@@ -237,20 +238,23 @@ TEST(PpocrReaderWithModels, ReadsAPrintedWordInAKeyframe) {
               6, cv::LINE_AA);
   cv::Mat bgra;
   cv::cvtColor(keyframe, bgra, cv::COLOR_BGR2BGRA);
-  for (const cv::Mat& image : {keyframe, bgra}) {
-    const auto words = make_text_reader(ppocr_config())->read(image);
-    ASSERT_EQ(words.size(), 1u);
-    EXPECT_EQ(words[0].text, "STATION");
-    EXPECT_GE(words[0].confidence, 0.7f);
-    // The box holds the drawn text (x 120.., baseline 260, about 65 px tall).
-    EXPECT_NEAR(words[0].box.x, 120, 25);
-    EXPECT_NEAR(words[0].box.y + words[0].box.height, 260, 25);
-  }
+  for (const bool int8 : {true, false})
+    for (const cv::Mat& image : {keyframe, bgra}) {
+      SCOPED_TRACE(int8 ? "int8 1x1 convolutions" : "float");
+      const auto words = make_text_reader(ppocr_config(int8))->read(image);
+      ASSERT_EQ(words.size(), 1u);
+      EXPECT_EQ(words[0].text, "STATION");
+      EXPECT_GE(words[0].confidence, 0.7f);
+      // The box holds the drawn text (x 120.., baseline 260, about 65 px tall).
+      EXPECT_NEAR(words[0].box.x, 120, 25);
+      EXPECT_NEAR(words[0].box.y + words[0].box.height, 260, 25);
+    }
 }
 
-// The station runs both networks on keyfleet's float stand-in layers: on a random input they give
-// OpenCV's own outputs to float rounding (the recogniser chains activations after its 1x1
-// convolutions: a stand-in that dropped one was off by 0.45).
+// In float, keyfleet's stand-in layers give OpenCV's own outputs of both networks to float rounding
+// on a random input (the recogniser chains activations after its 1x1 convolutions: a stand-in
+// that dropped one was off by 0.45). The station's default, the wide 1x1 convolutions in int8, is
+// checked on what it reads (above and below).
 TEST(PpocrReaderWithModels, StandInLayersGiveOpenCvsOutputs) {
   KEYFLEET_REQUIRE_PPOCR_MODELS();
   for (const auto& [file, height, width] : {std::tuple{"ppocr_det_640x480.onnx", 480, 640},
@@ -274,11 +278,13 @@ TEST(PpocrReaderWithModels, StandInLayersGiveOpenCvsOutputs) {
 TEST(PpocrReaderWithModels, ReadsRealWordCrops) {
   KEYFLEET_REQUIRE_PPOCR_MODELS();
   KEYFLEET_REQUIRE_DATA("words_mmocr/labels.json");
-  const auto reader = make_text_reader(ppocr_config());
-  const auto result = eval::evaluate_cropped_words(*reader, data_path.parent_path().string());
-  EXPECT_EQ(result.words, 10u);
-  // Measured 5 of 10 without the word filter, 4 (or 5: HOTEL at confidence 0.70) with it.
-  EXPECT_GE(result.correct, 4u) << "ppocr read " << result.correct << "/10";
+  for (const bool int8 : {true, false}) {
+    const auto reader = make_text_reader(ppocr_config(int8));
+    const auto result = eval::evaluate_cropped_words(*reader, data_path.parent_path().string());
+    EXPECT_EQ(result.words, 10u);
+    // Measured 5 of 10 without the word filter, 4 (or 5: HOTEL at confidence 0.70) with it.
+    EXPECT_GE(result.correct, 4u) << "ppocr read " << result.correct << "/10, int8 " << int8;
+  }
 }
 
 }  // namespace

@@ -3,8 +3,9 @@
 // padding 1; 2x2, stride 2, no padding), the 1x1 convolution, the dense 3x3 one (Winograd's in
 // float), the depthwise one, with and without bias and a fused chain of activations; in float,
 // and in bfloat16 where the CPU has it (then what OpenCV computes from the input and weights
-// rounded to bfloat16); Power, the inner product and softmax; other geometries stay OpenCV's,
-// and the shipped MiniNet gives the same masks in a batch as one frame at a time.
+// rounded to bfloat16); the 1x1 one in int8 (the quantized product, near OpenCV's); Power, the
+// inner product and softmax; other geometries stay OpenCV's, and the shipped MiniNet gives the same
+// masks in a batch as one frame at a time.
 #include <gtest/gtest.h>
 
 #include <opencv2/dnn/shape_utils.hpp>
@@ -227,6 +228,96 @@ TEST(PointwiseStandIn, MatchesOpenCvsConvolution) {
       EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * s.cin * 2 + 1e-6)
           << s.cin << " -> " << s.cout << ", " << s.w << "x" << s.h << ", " << type;
     }
+}
+
+// What the int8 stand-in computes (pointwise_int8.hpp), in double from the same quantized values:
+// weights per output channel to +-127, each image's input over its own range (zero included) to
+// 0..127. `bound`: how far that may be from the float product at each output, at most (half a
+// step of each operand on every product, and their product).
+cv::Mat quantized_1x1(const cv::Mat& input, const cv::Mat& weights, const cv::Mat& bias,
+                      cv::Mat* bound) {
+  const int images = input.size[0], cin = input.size[1], pixels = input.size[2] * input.size[3];
+  const int cout = weights.size[0];
+  cv::Mat out({images, cout, input.size[2], input.size[3]}, CV_32F);
+  bound->create(out.dims, out.size.p, CV_32F);
+  std::vector<double> scale(cout);
+  std::vector<long> q(std::size_t(cout) * cin);
+  for (int o = 0; o < cout; ++o) {
+    const float* w = weights.ptr<float>() + std::size_t(o) * cin;
+    float largest = 0;
+    for (int i = 0; i < cin; ++i) largest = std::max(largest, std::abs(w[i]));
+    const float s = largest > 0 ? largest / 127 : 1.f;
+    scale[o] = s;
+    for (int i = 0; i < cin; ++i) q[std::size_t(o) * cin + i] = std::lrint(w[i] / s);
+  }
+  for (int n = 0; n < images; ++n) {
+    const float* x = input.ptr<float>(n);
+    const auto [lo, hi] = std::minmax_element(x, x + std::size_t(cin) * pixels);
+    const float lowest = std::min(*lo, 0.f), highest = std::max(*hi, 0.f);
+    const float step = highest > lowest ? (highest - lowest) / 127 : 1.f, inverse = 1.f / step;
+    const long zero = std::clamp(std::lrint(-lowest / step), 0L, 127L);
+    for (int o = 0; o < cout; ++o)
+      for (int p = 0; p < pixels; ++p) {
+        double sum = 0, most = 0;
+        for (int i = 0; i < cin; ++i) {
+          const float xi = x[std::size_t(i) * pixels + p];
+          const long xq = std::clamp(std::lrint(xi * inverse) + zero, 0L, 127L);
+          sum += double(q[std::size_t(o) * cin + i]) * double(xq - zero);
+          const double w = weights.ptr<float>()[std::size_t(o) * cin + i];
+          most += std::abs(w) * step / 2 + std::abs(xi) * scale[o] / 2 + step * scale[o] / 4;
+        }
+        const std::size_t at = std::size_t(o) * pixels + p;
+        out.ptr<float>(n)[at] =
+            float(scale[o] * step * sum + (bias.empty() ? 0.0 : bias.ptr<float>()[o]));
+        bound->ptr<float>(n)[at] = float(most);
+      }
+  }
+  return out;
+}
+
+TEST(PointwiseStandIn, InInt8IsTheQuantizedProductAndCloseToOpenCvs) {
+  if (!matrix_product_layers_supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layer stays";
+  // 64 or more channels each way: output channels in whole and partial blocks of 4 and 2, input
+  // channels in whole and partial quads, columns in whole and partial blocks of 16 and 32.
+  const std::vector<Shape> shapes = {{64, 64, 4, 8, true, false},   {67, 66, 3, 7, false, false},
+                                     {96, 130, 5, 13, true, false}, {385, 70, 2, 16, true, false},
+                                     {128, 64, 1, 1, false, false}, {64, 97, 6, 11, true, false}};
+  DnnLayers int8 = DnnLayers::in_float();
+  int8.int8_pointwise = true;
+  cv::RNG rng(33);
+  for (const Shape& s : shapes) {
+    RandomLayer l(rng, s, {s.cout, s.cin, 1, 1});
+    l.input.ptr<float>(1)[0] = 7.f;  // the second image over another range than the first
+    std::string type;
+    const cv::Mat got = convolve_1x1(l.input, l.weights, l.bias, false, int8, &type);
+    EXPECT_EQ(type, "KeyfleetPointwiseInt8");
+    cv::Mat bound;
+    const cv::Mat quantized = quantized_1x1(l.input, l.weights, l.bias, &bound);
+    const cv::Mat exact = convolve_1x1(l.input, l.weights, l.bias, false, DnnLayers::opencv());
+    ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(exact));
+    double lowest, highest;
+    cv::minMaxIdx(exact, &lowest, &highest);
+    const double spread = highest - lowest;
+    // The integer sums are exact: only the float scaling differs from the double reference.
+    EXPECT_LT(cv::norm(got, quantized, cv::NORM_INF), 1e-5 * spread)
+        << s.cin << " -> " << s.cout << ", " << s.w << "x" << s.h;
+    // Against float: within the quantization's bound everywhere, 0.5 % of the outputs' spread
+    // on average.
+    cv::Mat error = cv::abs(got - exact) - (bound + 1e-5 * spread);
+    EXPECT_LE(cv::countNonZero(error.reshape(1, 1) > 0), 0) << s.cin << " -> " << s.cout;
+    EXPECT_LT(cv::norm(got, exact, cv::NORM_L1) / double(exact.total()), 0.005 * spread)
+        << s.cin << " -> " << s.cout;
+  }
+  // Fewer than 64 channels either way: the float product (quantizing the input would cost more
+  // than the integer products save).
+  for (const Shape& s : {Shape{63, 96, 2, 8, true, false}, Shape{96, 32, 2, 8, true, false}}) {
+    RandomLayer l(rng, s, {s.cout, s.cin, 1, 1});
+    std::string type;
+    const cv::Mat got = convolve_1x1(l.input, l.weights, l.bias, false, int8, &type);
+    EXPECT_EQ(type, "KeyfleetPointwise") << s.cin << " -> " << s.cout;
+    const cv::Mat expected = convolve_1x1(l.input, l.weights, l.bias, false, DnnLayers::opencv());
+    EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * s.cin * 2 + 1e-6);
+  }
 }
 
 cv::Mat convolve_3x3(const cv::Mat& input, const cv::Mat& weights, const cv::Mat& bias, bool selu,

@@ -174,6 +174,9 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
     } else {
       variants.push_back({path, name + ", all stand-ins", vision::DnnLayers{}});
     }
+    vision::DnnLayers int8 = vision::DnnLayers::in_float();
+    int8.int8_pointwise = true;
+    variants.push_back({path, name + ", all stand-ins, int8 1x1", int8});
   }
   print_variant_timings(variants, sizes, o.repetitions);
   if (o.profile) print_layer_profile(variants, sizes.at(0), o.repetitions);

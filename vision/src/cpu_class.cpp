@@ -60,12 +60,12 @@ std::string cpu_class_line() {
   return line;
 }
 
-std::string segmenter_kernels(bool bfloat16_wanted) {
+std::string segmenter_kernels(bool bfloat16_wanted, bool int8_wanted) {
+  if (!matrix_product_layers_supported()) return "OpenCV's layers";
+  const std::string int8 = int8_wanted ? ", wide 1x1 in int8 (AVX2)" : "";
   if (bfloat16_wanted && bfloat16_products_supported())
-    return "bfloat16 products (AVX512-BF16), depthwise in AVX2";
-  if (matrix_product_layers_supported())
-    return "float products, Winograd 3x3, depthwise in AVX2 (AVX2+FMA)";
-  return "OpenCV's layers";
+    return "bfloat16 products (AVX512-BF16), depthwise in AVX2" + int8;
+  return "float products, Winograd 3x3, depthwise in AVX2 (AVX2+FMA)" + int8;
 }
 
 }  // namespace keyfleet::vision

@@ -10,6 +10,7 @@ void visit(V& v, SemanticConfig& c) {
   v.field("border", c.border, between(0.0, 0.45));
   v.field("threads", c.threads, between(0, 64));
   v.field("bfloat16", c.bfloat16);
+  v.field("int8", c.int8);
 }
 
 template void visit(ConfigReader&, SemanticConfig&);

@@ -175,6 +175,7 @@ std::vector<cv::Mat> DnnTextSegmenter::segment(const std::vector<cv::Mat>& frame
 std::unique_ptr<DnnTextSegmenter> make_text_segmenter(const SemanticConfig& config) {
   DnnLayers layers;
   layers.bfloat16_products = config.bfloat16;
+  layers.int8_pointwise = config.int8;
   return std::make_unique<DnnTextSegmenter>(locate_model(config.model, "segmenter model"),
                                             config.threads, std::nullopt, layers);
 }

@@ -34,16 +34,16 @@ cv::Mat to_bgr8(const cv::Mat& image) {
 }  // namespace ppocr
 
 PpocrDetector::PpocrDetector(const std::string& model_path, cv::Size input_size,
-                             const DbParams& params)
+                             const DbParams& params, const vision::DnnLayers& layers)
     : input_size_(input_size), params_(params) {
   if (input_size.width <= 0 || input_size.height <= 0 || input_size.width % 32 != 0 ||
       input_size.height % 32 != 0)
     throw StartupError("ppocr detector: input size " + std::to_string(input_size.width) + "x" +
                        std::to_string(input_size.height) + " is not a multiple of 32");
-  // keyfleet's float stand-ins for OpenCV's 1x1, dense 3x3 and depthwise convolutions: the same
-  // map to float rounding in about 0.7x the time. OpenCV creates the layers on import and on the
-  // first pass (the probe below), so the scope covers both.
-  const vision::DnnLayersScope stand_ins(vision::DnnLayers::in_float());
+  // keyfleet's stand-ins for OpenCV's 1x1, dense 3x3 and depthwise convolutions (in float: the
+  // same map to float rounding in about 0.7x the time). OpenCV creates the layers on import and
+  // on the first pass (the probe below), so the scope covers both.
+  const vision::DnnLayersScope stand_ins(layers);
   try {
     net_ = cv::dnn::readNetFromONNX(model_path);
   } catch (const cv::Exception& e) {

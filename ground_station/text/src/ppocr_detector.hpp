@@ -8,6 +8,7 @@
 #include <opencv2/dnn.hpp>
 
 #include "keyfleet/vision/db_boxes.hpp"
+#include "keyfleet/vision/dnn_layers.hpp"
 
 #include <string>
 #include <vector>
@@ -21,8 +22,10 @@ using vision::TextQuad;
 class PpocrDetector {
  public:
   // Loads the converted model at `model_path`, built for `input_size` (multiples of 32) and
-  // checks it with one forward pass. Throws StartupError naming the file.
-  PpocrDetector(const std::string& model_path, cv::Size input_size, const DbParams& params);
+  // checks it with one forward pass, with keyfleet's stand-in layers `layers` (by default in
+  // float: OpenCV's map to float rounding). Throws StartupError naming the file.
+  PpocrDetector(const std::string& model_path, cv::Size input_size, const DbParams& params,
+                const vision::DnnLayers& layers = vision::DnnLayers::in_float());
 
   // Text lines in `image` (8-bit, 1, 3 or 4 channels), top-to-bottom then left-to-right.
   // Never throws: an empty, unusable or absurd image gives no lines.

@@ -40,6 +40,13 @@ std::string locate(const TextReadingConfig& params, const std::string& file,
   }
 }
 
+// keyfleet's stand-in layers for both networks: float, or the wide 1x1 convolutions in int8.
+vision::DnnLayers stand_in_layers(const TextReadingConfig& params) {
+  vision::DnnLayers layers = vision::DnnLayers::in_float();
+  layers.int8_pointwise = params.ppocr.int8;
+  return layers;
+}
+
 DbParams db_params(const TextReadingConfig& params) {
   for (const double v : {params.ppocr.binary_threshold, params.ppocr.box_threshold})
     if (!(v >= 0 && v <= 1))
@@ -60,7 +67,7 @@ std::vector<PpocrDetector> make_detectors(const TextReadingConfig& params) {
   std::vector<PpocrDetector> detectors;
   for (const auto& size : sizes)
     detectors.emplace_back(locate(params, "ppocr_det_" + size + ".onnx", "ppocr detector"),
-                           detector_size(size), db_params(params));
+                           detector_size(size), db_params(params), stand_in_layers(params));
   std::sort(detectors.begin(), detectors.end(), [](const auto& a, const auto& b) {
     return a.input_size().area() < b.input_size().area();
   });
@@ -74,8 +81,9 @@ PpocrRecognizer make_recognizer(const TextReadingConfig& params) {
         locate(params, "ppocr_rec_w" + std::to_string(width) + ".onnx", "ppocr recogniser");
   if (!(params.ppocr.space_probability >= 0 && params.ppocr.space_probability <= 1))
     throw StartupError("text reader: ppocr_space_probability must be within 0..1");
-  return PpocrRecognizer(files, locate(params, "ppocr_keys_v1.txt", "ppocr character list"),
-                         {params.ppocr.latin_only, float(params.ppocr.space_probability)});
+  return PpocrRecognizer(
+      files, locate(params, "ppocr_keys_v1.txt", "ppocr character list"),
+      {params.ppocr.latin_only, float(params.ppocr.space_probability), params.ppocr.int8});
 }
 
 float quad_area(const TextQuad& quad) {
@@ -91,7 +99,7 @@ std::unique_ptr<PpocrDetector> make_hint_detector(const TextReadingConfig& param
   const std::string file = "ppocr_det_" + params.ppocr.region_hint_detector_size + ".onnx";
   return std::make_unique<PpocrDetector>(locate(params, file, "ppocr region-hint detector"),
                                          detector_size(params.ppocr.region_hint_detector_size),
-                                         db_params(params));
+                                         db_params(params), stand_in_layers(params));
 }
 
 }  // namespace

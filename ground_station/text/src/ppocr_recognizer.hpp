@@ -49,6 +49,7 @@ std::vector<bool> latin_classes(const std::vector<std::string>& classes);
 struct RecognizerOptions {
   bool latin_only = true;       // emit only ppocr::latin_classes
   float space_probability = 0;  // as CtcOptions::space_probability
+  bool int8 = false;            // the wide 1x1 convolutions in 8-bit integers (DnnLayers)
 };
 
 class PpocrRecognizer {

@@ -52,6 +52,7 @@ void visit(V& v, TextReadingConfig& c) {
   v.field("ppocr_unclip_ratio", c.ppocr.unclip_ratio, between(0.0, 10.0));
   v.field("ppocr_latin_only", c.ppocr.latin_only);
   v.field("ppocr_space_probability", c.ppocr.space_probability, between(0.0, 1.0));
+  v.field("ppocr_int8", c.ppocr.int8);
   v.field("lexicon", c.lexicon);
 }
 

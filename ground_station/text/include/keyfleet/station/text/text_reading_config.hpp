@@ -62,6 +62,12 @@ struct PpocrSettings {
   std::string region_hints = "off";
   std::string region_hint_detector_size = "640x480";  // WxH as detector_size
   double region_hint_padding = 0.5;
+  // The detector's and recogniser's wide 1x1 convolutions (64 or more channels in and out) in
+  // 8-bit integers (vision::DnnLayers::int8_pointwise) on any AVX2 CPU: a keyframe read in 0.87x
+  // the time, ICDAR 2015 test_clean F 50.3 % against 50.7 % in float, 223 of 300 word crops
+  // against 226 (docs/results/2026-11-27-int8-products.md). false: float, OpenCV's outputs to
+  // float rounding.
+  bool int8 = true;
 };
 
 // Reading the words in received keyframes: the station's TextReader, and every tool that
