@@ -336,13 +336,15 @@ TEST(Convolution3x3StandIn, MatchesOpenCvsConvolution) {
   if (!matrix_product_layers_supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layer stays";
   // Output channels in whole and partial blocks of every shape; planes of one pixel, one row,
   // one column and wider than a block; odd input channels. In float, 8 or more inputs and
-  // outputs run as Winograd's F(2x2, 3x3): odd sides (a last block half outside), rows of
-  // blocks past a vector of 8, and PP-OCR's 96 -> 24 in several bands of block rows.
+  // outputs run as Winograd's F(4x4, 3x3): sides not a multiple of 4 (a last block partly
+  // outside), rows of blocks past a vector of 8 (33 columns: one column into a ninth block), and
+  // PP-OCR's 96 -> 24 in several bands of block rows.
   const std::vector<Shape> shapes = {
-      {3, 12, 8, 16, true, true},   {16, 24, 5, 7, false, false}, {5, 4, 1, 1, true, false},
-      {7, 2, 1, 30, false, true},   {9, 5, 30, 1, true, true},    {64, 96, 12, 20, true, false},
-      {33, 8, 6, 9, false, true},   {96, 256, 3, 4, true, false}, {20, 36, 15, 40, true, true},
-      {96, 24, 31, 41, true, true}, {8, 8, 1, 1, true, false},    {12, 10, 2, 35, false, true}};
+      {3, 12, 8, 16, true, true},   {16, 24, 5, 7, false, false},  {5, 4, 1, 1, true, false},
+      {7, 2, 1, 30, false, true},   {9, 5, 30, 1, true, true},     {64, 96, 12, 20, true, false},
+      {33, 8, 6, 9, false, true},   {96, 256, 3, 4, true, false},  {20, 36, 15, 40, true, true},
+      {96, 24, 31, 41, true, true}, {8, 8, 1, 1, true, false},     {12, 10, 2, 35, false, true},
+      {16, 16, 9, 33, true, false}, {96, 24, 120, 160, true, true}};
   cv::RNG rng(16);
   for (const bool bfloat16 : precisions())
     for (const Shape& s : shapes) {

@@ -1,7 +1,7 @@
 #pragma once
 // A 3x3 convolution with stride 1, padding 1 and one group (PP-OCR's and PlaceNet's dense 3x3
-// layers): in float with 8 or more inputs and outputs by Winograd's F(2x2, 3x3)
-// (winograd_3x3.hpp, 16 multiplications for 4 output pixels instead of 36), else (bfloat16, few
+// layers): in float with 8 or more inputs and outputs by Winograd's F(4x4, 3x3)
+// (winograd_3x3.hpp, 36 multiplications for 16 output pixels instead of 144), else (bfloat16, few
 // channels) as one matrix product of nine taps over the input read in place: each plane gets a
 // zero border, and output pixel (y, x) sums tap (ky, kx) of the input at (y + ky, x + kx) of the
 // bordered plane, a fixed shift along its rows. Internal to keyfleet_vision (dnn_layers.cpp wraps
@@ -24,7 +24,7 @@ class Convolution3x3 : public ProductKernel {
  public:
   // weights: output channels x input channels x 3 x 3, float; bias: empty or one per output;
   // bfloat16 as for SubpixelDeconvolution.
-  // In float with 8 or more inputs and outputs the layer runs as Winograd's F(2x2, 3x3)
+  // In float with 8 or more inputs and outputs the layer runs as Winograd's F(4x4, 3x3)
   // (winograd_3x3.hpp), else as nine taps of the product.
   Convolution3x3(const cv::Mat& weights, const cv::Mat& bias, bool bfloat16);
 

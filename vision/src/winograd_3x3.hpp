@@ -1,9 +1,11 @@
 #pragma once
-// A 3x3 convolution (stride 1, padding 1, one group) by Winograd's minimal filtering F(2x2, 3x3)
-// (Lavin and Gray, "Fast Algorithms for Convolutional Neural Networks", 2016): each 2x2 block of
-// output pixels is A^T [(G g G^T) . (B^T d B)] A of its 4x4 input patch d, so 16 multiplications
-// a block where the direct way takes 36. The 16 element-wise products summed over input channels
-// are 16 matrix products (avx2_product.hpp); the transforms run 8 blocks at a time in AVX2.
+// A 3x3 convolution (stride 1, padding 1, one group) by Winograd's minimal filtering F(4x4, 3x3)
+// (Lavin and Gray, "Fast Algorithms for Convolutional Neural Networks", 2016): each 4x4 block of
+// output pixels is A^T [(G g G^T) . (B^T d B)] A of its 6x6 input patch d, so 36 multiplications
+// a block where the direct way takes 144 (F(2x2, 3x3): 64). The 36 element-wise products summed
+// over input channels are 36 matrix products (avx2_product.hpp); the transforms run 8 blocks at a
+// time in AVX2. Float rounding grows with the transforms' constants (up to 8 and 1/24): outputs
+// within about 1e-5 of their spread of the direct sum.
 // Float only; internal to keyfleet_vision (convolution_3x3.cpp uses it where it pays).
 #include <opencv2/core.hpp>
 #include <opencv2/dnn/all_layers.hpp>
@@ -34,15 +36,16 @@ class Winograd3x3 {
                         const cv::dnn::ActivationLayer* activation);
 
   int cin_, cout_;
-  std::vector<float> transformed_;  // [16][cout][cin]: G g G^T of each kernel
+  static constexpr int kTaps = 36;  // 6 x 6 transformed values a block
+  std::vector<float> transformed_;  // [36][cout][cin]: G g G^T of each kernel
   std::vector<float> bias_;
   ProductBlock block_{0, 0};
   int row_blocks_ = 0;
   PackedWeights packed_;
   // Per run: the blocks along a row (a multiple of 8); per band: its transform
-  // [16][cin][columns_], the products [16][outputs][columns_].
+  // [36][cin][columns_], the products [36][outputs][columns_].
   int blocks_across_ = 0, columns_ = 0;
-  std::size_t v_plane_ = 0, m_plane_ = 0;  // between the 16 planes of v_ and of m_
+  std::size_t v_plane_ = 0, m_plane_ = 0;  // between the 36 planes of v_ and of m_
   std::vector<float> v_, m_;
 };
 
