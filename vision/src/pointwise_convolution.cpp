@@ -1,7 +1,6 @@
 #include "pointwise_convolution.hpp"
 
 #include <algorithm>
-#include <cstring>
 
 namespace keyfleet::vision {
 
@@ -53,20 +52,8 @@ void PointwiseConvolution::run(const float* src, int pixels, float* dst,
                             columns);
           }
       }
-      const int n0 = first * width, n1 = std::min(pixels, last * width);
-      if (n1 <= n0) continue;
-      if (direct) {
-        if (activation) activation->forwardSlice(out + n0, dst + n0, n1 - n0, pixels, 0, cout_);
-        continue;
-      }
-      for (int c = 0; c < cout_; ++c) {
-        const float* from = out + std::size_t(c) * columns + n0;
-        float* to = dst + std::size_t(c) * pixels + n0;
-        if (activation)
-          activation->forwardSlice(from, to, n1 - n0, pixels, c, c + 1);
-        else
-          std::memcpy(to, from, sizeof(float) * (n1 - n0));
-      }
+      finish_columns(direct ? nullptr : out, columns, cout_, first * width,
+                     std::min(pixels, last * width), dst, pixels, activation);
     }
   });
 }

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 
 #include "int8_product.hpp"
 #include "product_operands.hpp"
@@ -94,20 +93,8 @@ void Int8PointwiseConvolution::run(const float* src, int pixels, float* dst,
                                k0 == 0 ? offset_.data() + r0 : nullptr, o, columns);
           }
       }
-      const int n0 = first * width, n1 = std::min(pixels, last * width);
-      if (n1 <= n0) continue;
-      if (direct) {
-        if (activation) activation->forwardSlice(out + n0, dst + n0, n1 - n0, pixels, 0, cout_);
-        continue;
-      }
-      for (int c = 0; c < cout_; ++c) {
-        const float* from = out + std::size_t(c) * columns + n0;
-        float* to = dst + std::size_t(c) * pixels + n0;
-        if (activation)
-          activation->forwardSlice(from, to, n1 - n0, pixels, c, c + 1);
-        else
-          std::memcpy(to, from, sizeof(float) * (n1 - n0));
-      }
+      finish_columns(direct ? nullptr : out, columns, cout_, first * width,
+                     std::min(pixels, last * width), dst, pixels, activation);
     }
   });
 }

@@ -21,6 +21,23 @@ void copy_with_zero_border(const float* src, int h, int w, int top, int left, in
   }
 }
 
+void finish_columns(const float* products, std::size_t columns, int outputs, int n0, int n1,
+                    float* dst, int pixels, const cv::dnn::ActivationLayer* activation) {
+  if (n1 <= n0) return;
+  if (!products) {
+    if (activation) activation->forwardSlice(dst + n0, dst + n0, n1 - n0, pixels, 0, outputs);
+    return;
+  }
+  for (int c = 0; c < outputs; ++c) {
+    const float* from = products + std::size_t(c) * columns + n0;
+    float* to = dst + std::size_t(c) * pixels + n0;
+    if (activation)
+      activation->forwardSlice(from, to, n1 - n0, pixels, c, c + 1);
+    else
+      std::copy(from, from + (n1 - n0), to);
+  }
+}
+
 std::vector<float> padded_bias(const cv::Mat& bias, int outputs) {
   CV_Assert(bias.empty() || (bias.type() == CV_32F && int(bias.total()) == outputs));
   std::vector<float> padded(std::size_t((outputs + 23) / 24 * 24), 0.f);

@@ -3,6 +3,7 @@
 // and input laid out for the matrix-product kernels (float or bfloat16), their bias padded to
 // whole row blocks, and the step that multiplies one block of them. Internal to keyfleet_vision.
 #include <opencv2/core.hpp>
+#include <opencv2/dnn/all_layers.hpp>
 
 #include <cstdint>
 #include <functional>
@@ -23,6 +24,12 @@ inline int summed_length(int inputs, bool bfloat16) { return bfloat16 ? (inputs 
 // `left` zeros and followed by zeros; rows outside src are zeros. Each float written once.
 void copy_with_zero_border(const float* src, int h, int w, int top, int left, int rows, int width,
                            float* out);
+
+// Columns [n0, n1) of a 1x1 product's `outputs` planes into dst (planes of `pixels` floats), the
+// activation (may be null) applied on the way: from `products` (planes `columns` apart), or in
+// place where products is null (the product was written straight into dst).
+void finish_columns(const float* products, std::size_t columns, int outputs, int n0, int n1,
+                    float* dst, int pixels, const cv::dnn::ActivationLayer* activation);
 
 // One float per output, zero where `bias` is empty, padded with zeros to a multiple of 24 (whole
 // row blocks of every block shape).
