@@ -16,6 +16,7 @@
 #include "commands.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/eval/segmenter_eval.hpp"
+#include "keyfleet/vision/cpu_class.hpp"
 #include "keyfleet/vision/model_files.hpp"
 
 namespace keyfleet::commands {
@@ -168,15 +169,15 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
     vision::DnnLayers selu_depthwise = vision::DnnLayers::opencv();
     selu_depthwise.vectorised_selu = selu_depthwise.depthwise = true;
     variants.push_back({path, name + ", SELU + depthwise", selu_depthwise});
-    if (vision::bfloat16_products_supported()) {
-      variants.push_back({path, name + ", all stand-ins, float", vision::DnnLayers::in_float()});
-      variants.push_back({path, name + ", all stand-ins, bfloat16", vision::DnnLayers{}});
-    } else {
-      variants.push_back({path, name + ", all stand-ins", vision::DnnLayers{}});
-    }
+    variants.push_back({path, name + ", all stand-ins, float", vision::DnnLayers::in_float()});
     vision::DnnLayers int8 = vision::DnnLayers::in_float();
     int8.int8_pointwise = true;
     variants.push_back({path, name + ", all stand-ins, int8 1x1", int8});
+    if (vision::bfloat16_products_supported()) {
+      variants.push_back({path, name + ", all stand-ins, bfloat16", vision::DnnLayers{}});
+      int8.bfloat16_products = true;
+      variants.push_back({path, name + ", bfloat16, int8 1x1", int8});
+    }
   }
   print_variant_timings(variants, sizes, o.repetitions);
   if (o.profile) print_layer_profile(variants, sizes.at(0), o.repetitions);
@@ -195,9 +196,13 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
     }
   }
 
-  // Table III: the default inference path, per input size, each model. FLOPs of a fully
-  // convolutional network grow with the pixel count.
-  std::printf("\nTable III (default layers; ms: median of %d forward passes)\n", o.repetitions);
+  // Table III: the agent's default inference path (SemanticConfig's stand-ins), per input size,
+  // each model. FLOPs of a fully convolutional network grow with the pixel count.
+  const vision::DnnLayers agent_layers = vision::semantic_layers(SemanticConfig{});
+  std::printf("\nTable III (the agent's default layers: %s; ms: median of %d forward passes)\n",
+              vision::segmenter_kernels(agent_layers.bfloat16_products, agent_layers.int8_pointwise)
+                  .c_str(),
+              o.repetitions);
   std::printf("%-9s %-24s %-9s %7s %7s %7s %7s %7s %8s %8s %6s\n", "model", "set", "input",
               "images", "R %", "P %", "IoU %", "GFLOPs", "ms 1 thr", "ms 2 thr", "rank");
   for (std::size_t m = 0; m < models.size(); ++m) {
@@ -205,7 +210,7 @@ int run_segmenter_eval(const SegmenterEvalOptions& o) {
     const auto model_info = vision::read_segmenter_info(path);
     const std::string label = m ? "compare " + std::to_string(m) : "model";
     for (const auto& size : sizes) {
-      vision::DnnTextSegmenter net(path, 0, size);
+      vision::DnnTextSegmenter net(path, 0, size, agent_layers);
       std::vector<vision::TextSegmenter*> one = {&net};
       cv::setNumThreads(1);
       const double ms1 = eval::median_forward_ms(one, o.repetitions).at(0);

@@ -172,12 +172,16 @@ std::vector<cv::Mat> DnnTextSegmenter::segment(const std::vector<cv::Mat>& frame
   return masks;
 }
 
-std::unique_ptr<DnnTextSegmenter> make_text_segmenter(const SemanticConfig& config) {
+DnnLayers semantic_layers(const SemanticConfig& config) {
   DnnLayers layers;
   layers.bfloat16_products = config.bfloat16;
   layers.int8_pointwise = config.int8;
+  return layers;
+}
+
+std::unique_ptr<DnnTextSegmenter> make_text_segmenter(const SemanticConfig& config) {
   return std::make_unique<DnnTextSegmenter>(locate_model(config.model, "segmenter model"),
-                                            config.threads, std::nullopt, layers);
+                                            config.threads, std::nullopt, semantic_layers(config));
 }
 
 }  // namespace keyfleet::vision

@@ -75,4 +75,7 @@ class DnnTextSegmenter final : public TextSegmenter {
 // The segmenter a SemanticConfig describes (its model looked up as locate_model does).
 std::unique_ptr<DnnTextSegmenter> make_text_segmenter(const SemanticConfig& config);
 
+// The stand-in layers a semantic config asks for (all of them; bfloat16 and int8 as it says).
+DnnLayers semantic_layers(const SemanticConfig& config);
+
 }  // namespace keyfleet::vision
