@@ -4,8 +4,9 @@
 //  - the PP-OCR parts at 1 and 2 OpenCV threads: the detector (whole detect(), its network pass
 //    alone, its DB post-processing alone) at each fetched input size on a real photo at its
 //    native 1280x720 and resized to 640x480; the recogniser per input width on a real word crop;
-//    the recogniser's work around its network (perspective cut, CTC decoding). The whole read and
-//    the recogniser also with the wide 1x1 convolutions in int8 (analysis.text.ppocr_int8).
+//    the recogniser's work around its network (perspective cut, CTC decoding). The whole read
+//    with the station's default (the wide 1x1 convolutions in int8, analysis.text.ppocr_int8)
+//    and in float (ppocr_float); the recogniser in both (int8:1 and int8:0).
 // Cases whose models (scripts/fetch_ppocr.sh) or data (KEYFLEET_DATA) are missing are skipped
 // with the reason. Prints figures; never pass/fail.
 // The recogniser's crops of one keyframe are read one at a time: OpenCV 4.6 cannot batch them.
@@ -78,7 +79,7 @@ std::optional<std::string> ppocr_file(const std::string& file, std::string& why)
   }
 }
 
-void read_keyframe(benchmark::State& state, const std::string& engine, bool int8 = false) {
+void read_keyframe(benchmark::State& state, const std::string& engine, bool int8 = true) {
   keyfleet::TextReadingConfig params;
   params.engine = engine;
   params.ppocr.int8 = int8;
@@ -299,7 +300,7 @@ BENCHMARK_CAPTURE(read_keyframe, mininet_tesseract, std::string("mininet+tessera
     ->Apply(timed)
     ->Iterations(5);
 BENCHMARK_CAPTURE(read_keyframe, ppocr, std::string("ppocr"))->Apply(timed)->Iterations(5);
-BENCHMARK_CAPTURE(read_keyframe, ppocr_int8, std::string("ppocr"), true)
+BENCHMARK_CAPTURE(read_keyframe, ppocr_float, std::string("ppocr"), false)
     ->Apply(timed)
     ->Iterations(5);
 
