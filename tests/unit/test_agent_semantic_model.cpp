@@ -74,15 +74,22 @@ TEST(AgentSemanticModel, MarksADrawnWordWhereItWasDrawn) {
 // Floors about 0.1 below the model's own figures on these views at 320x256 (recall 0.674,
 // precision 0.636, IoU 0.486, rank 0.75 when recorded): a regression below them fails. MiniNet
 // there: 0.63 / 0.32 / 0.27, rank 0.68.
-// The default config, and in float products where it would use bfloat16 ones (a CPU with
-// AVX512-BF16): what a CPU without it runs (Winograd's 3x3 convolutions among them).
+// The default config (float products with the wide 1x1 layers in int8), all in float (OpenCV's
+// logits to float rounding), and in bfloat16 where the CPU has AVX512-BF16.
 std::vector<SemanticConfig> both_precisions() {
   std::vector<SemanticConfig> configs = {SemanticConfig{}};
-  if (configs[0].bfloat16 && bfloat16_products_supported()) {
+  configs.push_back(SemanticConfig{});
+  configs.back().int8 = configs.back().bfloat16 = false;
+  if (bfloat16_products_supported()) {
     configs.push_back(SemanticConfig{});
-    configs.back().bfloat16 = false;
+    configs.back().bfloat16 = true;
   }
   return configs;
+}
+
+std::string precision_name(const SemanticConfig& config) {
+  return std::string(config.bfloat16 ? "bfloat16" : "float") + " products" +
+         (config.int8 ? ", int8 1x1" : "");
 }
 
 TEST(AgentSemanticModel, FindsTextPixelsOfGeneratedViewsAboveStatedFloors) {
@@ -90,7 +97,7 @@ TEST(AgentSemanticModel, FindsTextPixelsOfGeneratedViewsAboveStatedFloors) {
   for (const SemanticConfig& config : both_precisions()) {
     auto segmenter = make_text_segmenter(config);
     const SegmentationScores s = test::score_on_generated_views(*segmenter);
-    SCOPED_TRACE(config.bfloat16 ? "bfloat16 products" : "float products");
+    SCOPED_TRACE(precision_name(config));
     EXPECT_EQ(s.images, test::kGeneratedViews);
     EXPECT_GT(s.recall, 0.57) << "precision " << s.precision << ", IoU " << s.iou;
     EXPECT_GT(s.precision, 0.53) << "recall " << s.recall << ", IoU " << s.iou;
@@ -110,7 +117,7 @@ TEST(AgentSemanticModel, FindsTextPixelsOfUnseenRealPhotosAboveStatedFloors) {
     auto segmenter = make_text_segmenter(config);
     const SegmentationScores s = evaluate_on_icdar(*segmenter, (data_path / "images").string(),
                                                    (data_path / "gt").string(), 20);
-    SCOPED_TRACE(config.bfloat16 ? "bfloat16 products" : "float products");
+    SCOPED_TRACE(precision_name(config));
     EXPECT_EQ(s.images, 20u);
     EXPECT_GT(s.recall, 0.22) << "precision " << s.precision << ", IoU " << s.iou;
     EXPECT_GT(s.precision, 0.60) << "recall " << s.recall << ", IoU " << s.iou;

@@ -13,10 +13,11 @@ struct SemanticConfig {
   std::string model = "ppocr/ppocr_det_320x256.onnx";
   double border = 0.1;  // border band, as a fraction of the mask's smaller side
   int threads = 1;      // OpenCV DNN threads
-  // The transposed and 1x1 convolutions in bfloat16 (float sums) where the CPU has AVX512-BF16:
-  // about 1.5x faster on one thread; logits move by ~0.01 on average, a few boundary pixels of a
-  // mask change. false: float, OpenCV's own logits to float rounding.
-  bool bfloat16 = true;
+  // The product stand-ins in bfloat16 (float sums) where the CPU has AVX512-BF16; logits move by
+  // ~0.01 on average, a few boundary pixels of a mask change. Off by default since the int8 1x1
+  // layers and Winograd's F(4x4, 3x3) (float only): float with them took 0.92x bfloat16's time
+  // a pass (docs/results/2026-11-27-int8-products.md). false: float.
+  bool bfloat16 = false;
   // The wide 1x1 convolutions (64 or more channels in and out) in 8-bit integers on any AVX2 CPU
   // (DnnLayers::int8_pointwise), in place of float or bfloat16: PP-OCR's detector at 320x256 in
   // 0.93x the time of float, test_clean IoU unchanged (docs/results/2026-11-27-int8-products.md).
