@@ -9,6 +9,8 @@
 
 #include "keyfleet/vision/dnn_layers.hpp"
 
+#include "int8_product.hpp"
+
 namespace keyfleet::vision {
 namespace {
 
@@ -62,7 +64,8 @@ std::string cpu_class_line() {
 
 std::string segmenter_kernels(bool bfloat16_wanted, bool int8_wanted) {
   if (!matrix_product_layers_supported()) return "OpenCV's layers";
-  const std::string int8 = int8_wanted ? ", wide 1x1 in int8 (AVX2)" : "";
+  const std::string int8 =
+      int8_wanted ? std::string(", wide 1x1 in int8 (") + int8_instructions() + ")" : "";
   if (bfloat16_wanted && bfloat16_products_supported())
     return "bfloat16 products (AVX512-BF16), depthwise in AVX2" + int8;
   return "float products, Winograd 3x3, depthwise in AVX2 (AVX2+FMA)" + int8;

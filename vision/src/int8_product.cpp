@@ -6,54 +6,94 @@
 #include <cmath>
 
 #if defined(__GNUC__) && defined(__x86_64__)
+#include <cpuid.h>
 #include <immintrin.h>
 #define KEYFLEET_INT8_X86 1
 #define KEYFLEET_INT8_TARGET __attribute__((target("avx2,fma")))
+#define KEYFLEET_AVX_VNNI_TARGET __attribute__((target("avx2,fma,avxvnni")))
+#define KEYFLEET_AVX512_VNNI_TARGET __attribute__((target("avx2,fma,avx512f,avx512vl,avx512vnni")))
 #endif
 
 namespace keyfleet::vision {
 namespace {
 
 #ifdef KEYFLEET_INT8_X86
-// rows x (vectors x 8 lanes) block; the loops over rows and vectors unrolled so that the
-// accumulators stay in registers (as in avx2_product.cpp). Each product of a quad: vpmaddubsw
-// (unsigned input bytes times signed weight bytes, pairs summed to 16 bits), vpmaddwd by ones
-// (pairs of those summed to 32 bits), added to the accumulator.
-template <int kRows, int kVectors>
-KEYFLEET_INT8_TARGET void tile(const std::uint32_t* a, const std::uint32_t* b, int quads,
-                               std::size_t plane, const float* scale, const float* offset,
-                               float* out, std::size_t out_stride) {
-  const __m256i ones = _mm256_set1_epi16(1);
-  __m256i acc[kRows][kVectors];
-#pragma GCC unroll 16
-  for (int r = 0; r < kRows; ++r)
-#pragma GCC unroll 16
-    for (int v = 0; v < kVectors; ++v) acc[r][v] = _mm256_setzero_si256();
-  for (int q = 0; q < quads; ++q, a += kRows, b += plane) {
-    __m256i bv[kVectors];
-#pragma GCC unroll 16
-    for (int v = 0; v < kVectors; ++v)
-      bv[v] = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(b + 8 * v));
-#pragma GCC unroll 16
-    for (int r = 0; r < kRows; ++r) {
-      const __m256i ar = _mm256_set1_epi32(int(a[r]));
-#pragma GCC unroll 16
-      for (int v = 0; v < kVectors; ++v)
-        acc[r][v] =
-            _mm256_add_epi32(acc[r][v], _mm256_madd_epi16(_mm256_maddubs_epi16(bv[v], ar), ones));
-    }
-  }
-#pragma GCC unroll 16
-  for (int r = 0; r < kRows; ++r) {
-    const __m256 s = _mm256_set1_ps(scale[r]);
-#pragma GCC unroll 16
-    for (int v = 0; v < kVectors; ++v) {
-      float* o = out + r * out_stride + 8 * v;
-      const __m256 base = offset ? _mm256_set1_ps(offset[r]) : _mm256_loadu_ps(o);
-      _mm256_storeu_ps(o, _mm256_fmadd_ps(s, _mm256_cvtepi32_ps(acc[r][v]), base));
-    }
-  }
+// One product of a quad into 32-bit sums, three ways with the same sums: AVX2's vpmaddubsw
+// (unsigned input bytes times signed weight bytes, pairs summed to 16 bits) then vpmaddwd by ones
+// (pairs of those summed to 32 bits); VNNI's vpdpbusd, one instruction for both (VEX-encoded on
+// AVX-VNNI CPUs, EVEX on AVX512-VNNI ones).
+KEYFLEET_INT8_TARGET inline __m256i dot_avx2(__m256i acc, __m256i b, __m256i a) {
+  return _mm256_add_epi32(acc, _mm256_madd_epi16(_mm256_maddubs_epi16(b, a), _mm256_set1_epi16(1)));
 }
+KEYFLEET_AVX_VNNI_TARGET inline __m256i dot_avx_vnni(__m256i acc, __m256i b, __m256i a) {
+  return _mm256_dpbusd_avx_epi32(acc, b, a);
+}
+KEYFLEET_AVX512_VNNI_TARGET inline __m256i dot_avx512_vnni(__m256i acc, __m256i b, __m256i a) {
+  return _mm256_dpbusd_epi32(acc, b, a);
+}
+
+// rows x (vectors x 8 lanes) block; the loops over rows and vectors unrolled so that the
+// accumulators stay in registers (as in avx2_product.cpp). One function per instruction set (a
+// function's target cannot depend on a template argument).
+#define KEYFLEET_INT8_TILE(NAME, TARGET, DOT)                                                     \
+  template <int kRows, int kVectors>                                                              \
+  TARGET void NAME(const std::uint32_t* a, const std::uint32_t* b, int quads, std::size_t plane,  \
+                   const float* scale, const float* offset, float* out, std::size_t out_stride) { \
+    __m256i acc[kRows][kVectors];                                                                 \
+    _Pragma("GCC unroll 16") for (int r = 0; r < kRows; ++r)                                      \
+        _Pragma("GCC unroll 16") for (int v = 0; v < kVectors; ++v) acc[r][v] =                   \
+            _mm256_setzero_si256();                                                               \
+    for (int q = 0; q < quads; ++q, a += kRows, b += plane) {                                     \
+      __m256i bv[kVectors];                                                                       \
+      _Pragma("GCC unroll 16") for (int v = 0; v < kVectors; ++v) bv[v] =                         \
+          _mm256_loadu_si256(reinterpret_cast<const __m256i*>(b + 8 * v));                        \
+      _Pragma("GCC unroll 16") for (int r = 0; r < kRows; ++r) {                                  \
+        const __m256i ar = _mm256_set1_epi32(int(a[r]));                                          \
+        _Pragma("GCC unroll 16") for (int v = 0; v < kVectors; ++v) acc[r][v] =                   \
+            DOT(acc[r][v], bv[v], ar);                                                            \
+      }                                                                                           \
+    }                                                                                             \
+    _Pragma("GCC unroll 16") for (int r = 0; r < kRows; ++r) {                                    \
+      const __m256 s = _mm256_set1_ps(scale[r]);                                                  \
+      _Pragma("GCC unroll 16") for (int v = 0; v < kVectors; ++v) {                               \
+        float* o = out + r * out_stride + 8 * v;                                                  \
+        const __m256 base = offset ? _mm256_set1_ps(offset[r]) : _mm256_loadu_ps(o);              \
+        _mm256_storeu_ps(o, _mm256_fmadd_ps(s, _mm256_cvtepi32_ps(acc[r][v]), base));             \
+      }                                                                                           \
+    }                                                                                             \
+  }
+
+KEYFLEET_INT8_TILE(tile_avx2, KEYFLEET_INT8_TARGET, dot_avx2)
+KEYFLEET_INT8_TILE(tile_avx_vnni, KEYFLEET_AVX_VNNI_TARGET, dot_avx_vnni)
+KEYFLEET_INT8_TILE(tile_avx512_vnni, KEYFLEET_AVX512_VNNI_TARGET, dot_avx512_vnni)
+#undef KEYFLEET_INT8_TILE
+
+// AVX-VNNI: CPUID leaf 7, sub-leaf 1, EAX bit 4.
+bool cpu_has_avx_vnni() {
+  unsigned eax = 0, ebx = 0, ecx = 0, edx = 0;
+  return __get_cpuid_count(7, 1, &eax, &ebx, &ecx, &edx) && (eax & (1u << 4)) != 0;
+}
+#endif
+
+enum class Int8Set { kNone, kAvx2, kAvxVnni, kAvx512Vnni };
+
+// OpenCV's view of AVX-512 (OPENCV_CPU_DISABLE turns it off to approximate an AVX2 CPU); the VEX
+// form only on CPUs without AVX-512 (Intel's since Alder Lake), which the approximation on an
+// AVX-512 machine then leaves alone.
+Int8Set int8_set() {
+#ifdef KEYFLEET_INT8_X86
+  static const Int8Set chosen =
+      cv::checkHardwareSupport(CV_CPU_AVX_512F) && cv::checkHardwareSupport(CV_CPU_AVX_512VL) &&
+              cv::checkHardwareSupport(CV_CPU_AVX_512VNNI)
+          ? Int8Set::kAvx512Vnni
+      : cpu_has_avx_vnni() && !__builtin_cpu_supports("avx512f") ? Int8Set::kAvxVnni
+                                                                 : Int8Set::kAvx2;
+  return chosen;
+#else
+  return Int8Set::kNone;
+#endif
+}
+#ifdef KEYFLEET_INT8_X86
 
 KEYFLEET_INT8_TARGET __m256i quantized(const float* x, __m256 inverse_scale, __m256i zero) {
   const __m256i q =
@@ -111,6 +151,15 @@ KEYFLEET_INT8_TARGET void quantize_quads_avx2(const float* src, int channels, in
 
 }  // namespace
 
+const char* int8_instructions() {
+  switch (int8_set()) {
+    case Int8Set::kAvx512Vnni: return "AVX512-VNNI";
+    case Int8Set::kAvxVnni: return "AVX-VNNI";
+    case Int8Set::kAvx2: return "AVX2";
+    default: return "none";
+  }
+}
+
 ProductBlock int8_product_block(int rows, int columns) {
   return ProductBlock::least_padding(rows, columns, {{4, 16}, {2, 32}});
 }
@@ -140,10 +189,23 @@ void product_block_int8(ProductBlock block, const std::uint32_t* a, const std::u
                         int quads, std::size_t plane, const float* scale, const float* offset,
                         float* out, std::size_t out_stride) {
 #ifdef KEYFLEET_INT8_X86
-  if (block.rows == 4)
-    tile<4, 2>(a, b, quads, plane, scale, offset, out, out_stride);
-  else
-    tile<2, 4>(a, b, quads, plane, scale, offset, out, out_stride);
+  const Int8Set set = int8_set();
+  const bool wide = block.rows == 4;
+  if (set == Int8Set::kAvx512Vnni) {
+    if (wide)
+      tile_avx512_vnni<4, 2>(a, b, quads, plane, scale, offset, out, out_stride);
+    else
+      tile_avx512_vnni<2, 4>(a, b, quads, plane, scale, offset, out, out_stride);
+  } else if (set == Int8Set::kAvxVnni) {
+    if (wide)
+      tile_avx_vnni<4, 2>(a, b, quads, plane, scale, offset, out, out_stride);
+    else
+      tile_avx_vnni<2, 4>(a, b, quads, plane, scale, offset, out, out_stride);
+  } else if (wide) {
+    tile_avx2<4, 2>(a, b, quads, plane, scale, offset, out, out_stride);
+  } else {
+    tile_avx2<2, 4>(a, b, quads, plane, scale, offset, out, out_stride);
+  }
 #else
   (void)block, (void)a, (void)b, (void)quads, (void)plane, (void)scale, (void)offset, (void)out,
       (void)out_stride;

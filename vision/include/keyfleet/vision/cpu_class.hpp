@@ -13,7 +13,8 @@ std::string cpu_class_line();
 
 // The segmenter's kernels: "bfloat16 products (AVX512-BF16), depthwise in AVX2", "float
 // products, Winograd 3x3, depthwise in AVX2 (AVX2+FMA)" or "OpenCV's layers", with ", wide 1x1
-// in int8 (AVX2)" where asked, for a semantic config that asks for bfloat16 and int8 or not.
+// in int8 (AVX2)" (or AVX-VNNI, AVX512-VNNI: what the int8 products use here) where asked, for a
+// semantic config that asks for bfloat16 and int8 or not.
 std::string segmenter_kernels(bool bfloat16_wanted, bool int8_wanted = false);
 
 }  // namespace keyfleet::vision
