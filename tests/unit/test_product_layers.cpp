@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <optional>
 #include <string>
@@ -20,6 +21,7 @@
 #include <typeinfo>
 #include <vector>
 
+#include "keyfleet/vision/cpu_class.hpp"
 #include "keyfleet/vision/dnn_layers.hpp"
 #include "keyfleet/vision/model_files.hpp"
 #include "keyfleet/vision/text_segmenter.hpp"
@@ -277,6 +279,15 @@ cv::Mat quantized_1x1(const cv::Mat& input, const cv::Mat& weights, const cv::Ma
 
 TEST(PointwiseStandIn, InInt8IsTheQuantizedProductAndCloseToOpenCvs) {
   if (!matrix_product_layers_supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layer stays";
+  // KEYFLEET_INT8_INSTRUCTIONS (ctest sets each): the products must run with that set.
+  const char* asked = std::getenv("KEYFLEET_INT8_INSTRUCTIONS");
+  const std::string kernels = segmenter_kernels(false, true);
+  if (asked) {
+    std::string wanted = asked;
+    std::transform(wanted.begin(), wanted.end(), wanted.begin(), ::toupper);
+    if (kernels.find("int8 (" + wanted + ")") == std::string::npos)
+      GTEST_SKIP() << "this CPU cannot run the int8 products with " << wanted << ": " << kernels;
+  }
   // 64 or more channels each way: output channels in whole and partial blocks of 4 and 2, input
   // channels in whole and partial quads, columns in whole and partial blocks of 16 and 32.
   const std::vector<Shape> shapes = {{64, 64, 4, 8, true, false},   {67, 66, 3, 7, false, false},

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <string>
 
 #if defined(__GNUC__) && defined(__x86_64__)
 #include <cpuid.h>
@@ -80,14 +82,33 @@ enum class Int8Set { kNone, kAvx2, kAvxVnni, kAvx512Vnni };
 // OpenCV's view of AVX-512 (OPENCV_CPU_DISABLE turns it off to approximate an AVX2 CPU); the VEX
 // form only on CPUs without AVX-512 (Intel's since Alder Lake), which the approximation on an
 // AVX-512 machine then leaves alone.
+#ifdef KEYFLEET_INT8_X86
+bool has_avx512_vnni() {
+  return cv::checkHardwareSupport(CV_CPU_AVX_512F) && cv::checkHardwareSupport(CV_CPU_AVX_512VL) &&
+         cv::checkHardwareSupport(CV_CPU_AVX_512VNNI);
+}
+
+Int8Set detected_set() {
+  if (has_avx512_vnni()) return Int8Set::kAvx512Vnni;
+  if (cpu_has_avx_vnni() && !__builtin_cpu_supports("avx512f")) return Int8Set::kAvxVnni;
+  return Int8Set::kAvx2;
+}
+
+// KEYFLEET_INT8_INSTRUCTIONS=avx2|avx-vnni|avx512-vnni picks one where the CPU has it (tests and
+// benchmarks of each path); anything else, or one the CPU lacks, leaves the detected choice.
+Int8Set requested_or_detected_set() {
+  const char* asked = std::getenv("KEYFLEET_INT8_INSTRUCTIONS");
+  const std::string name = asked ? asked : "";
+  if (name == "avx2") return Int8Set::kAvx2;
+  if (name == "avx-vnni" && cpu_has_avx_vnni()) return Int8Set::kAvxVnni;
+  if (name == "avx512-vnni" && has_avx512_vnni()) return Int8Set::kAvx512Vnni;
+  return detected_set();
+}
+#endif
+
 Int8Set int8_set() {
 #ifdef KEYFLEET_INT8_X86
-  static const Int8Set chosen =
-      cv::checkHardwareSupport(CV_CPU_AVX_512F) && cv::checkHardwareSupport(CV_CPU_AVX_512VL) &&
-              cv::checkHardwareSupport(CV_CPU_AVX_512VNNI)
-          ? Int8Set::kAvx512Vnni
-      : cpu_has_avx_vnni() && !__builtin_cpu_supports("avx512f") ? Int8Set::kAvxVnni
-                                                                 : Int8Set::kAvx2;
+  static const Int8Set chosen = requested_or_detected_set();
   return chosen;
 #else
   return Int8Set::kNone;

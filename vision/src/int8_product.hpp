@@ -37,8 +37,9 @@ void quantize_quads(const float* src, int channels, int pixels, float inverse_sc
                     std::uint32_t* dst, std::size_t plane);
 
 // The instructions the products run with: "AVX512-VNNI" (where OpenCV may use AVX-512 and the CPU
-// has AVX512-VNNI), "AVX-VNNI" (CPUs with it and without AVX-512), else "AVX2". The sums are the
-// same with each.
+// has AVX512-VNNI), "AVX-VNNI" (CPUs with it and without AVX-512), else "AVX2"; or the one the
+// environment's KEYFLEET_INT8_INSTRUCTIONS (avx2, avx-vnni, avx512-vnni) names, where the CPU has
+// it. The sums are the same with each.
 const char* int8_instructions();
 
 // Reads columns [0, block.columns) of b.
