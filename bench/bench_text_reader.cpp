@@ -235,9 +235,10 @@ std::optional<RecognizerCase> recognizer_case(benchmark::State& state, int width
   }
   const float w = float(c.crop.cols), h = float(c.crop.rows);
   c.quad = {cv::Point2f(0, 0), cv::Point2f(w, 0), cv::Point2f(w, h), cv::Point2f(0, h)};
-  c.recognizer =
-      std::make_unique<PpocrRecognizer>(std::map<int, std::string>{{width, *model}}, *keys,
-                                        keyfleet::station::RecognizerOptions{true, 0, int8});
+  keyfleet::station::RecognizerOptions options;
+  options.layers.int8_pointwise = int8;
+  c.recognizer = std::make_unique<PpocrRecognizer>(std::map<int, std::string>{{width, *model}},
+                                                   *keys, options);
   return c;
 }
 

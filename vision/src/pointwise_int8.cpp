@@ -13,19 +13,21 @@ Int8PointwiseConvolution::Int8PointwiseConvolution(const cv::Mat& weights, const
     : cin_(weights.size[1]),
       cout_(weights.size[0]),
       quads_((weights.size[1] + 3) / 4),
-      weights_(weights),
       bias_(padded_bias(bias, weights.size[0])) {
   CV_Assert(weights.dims == 4 && weights.type() == CV_32F && weights.isContinuous() &&
             weights.size[2] == 1 && weights.size[3] == 1);
   weight_scale_.resize(cout_);
   weight_sum_.resize(cout_);
+  quantized_.resize(std::size_t(cout_) * cin_);
   for (int co = 0; co < cout_; ++co) {
-    const float* w = weights_.ptr<float>() + std::size_t(co) * cin_;
+    const float* w = weights.ptr<float>() + std::size_t(co) * cin_;
+    std::int8_t* q = quantized_.data() + std::size_t(co) * cin_;
     float largest = 0.f;
     for (int ci = 0; ci < cin_; ++ci) largest = std::max(largest, std::abs(w[ci]));
     weight_scale_[co] = largest > 0.f ? largest / kInt8WeightLimit : 1.f;
     long sum = 0;
-    for (int ci = 0; ci < cin_; ++ci) sum += std::lrint(w[ci] / weight_scale_[co]);
+    for (int ci = 0; ci < cin_; ++ci)
+      sum += q[ci] = std::int8_t(std::lrint(w[ci] / weight_scale_[co]));
     weight_sum_[co] = float(sum);
   }
 }
@@ -34,13 +36,12 @@ void Int8PointwiseConvolution::pack(ProductBlock block) {
   block_ = block;
   row_blocks_ = (cout_ + block.rows - 1) / block.rows;
   packed_.assign(std::size_t(row_blocks_) * quads_ * block.rows, 0u);
-  const float* w = weights_.ptr<float>();
   for (int co = 0; co < cout_; ++co)
     for (int ci = 0; ci < cin_; ++ci) {
-      const long q = std::lrint(w[std::size_t(co) * cin_ + ci] / weight_scale_[co]);
       const std::size_t i =
           (std::size_t(co / block.rows) * quads_ + ci / 4) * block.rows + co % block.rows;
-      packed_[i] |= std::uint32_t(std::uint8_t(std::int8_t(q))) << (8 * (ci % 4));
+      packed_[i] |= std::uint32_t(std::uint8_t(quantized_[std::size_t(co) * cin_ + ci]))
+                    << (8 * (ci % 4));
     }
 }
 

@@ -34,10 +34,10 @@ class Int8PointwiseConvolution {
   void pack(ProductBlock block);  // the weights for blocks of that shape
 
   int cin_, cout_, quads_;
-  cv::Mat weights_;
-  std::vector<float> bias_;          // padded to whole row blocks
-  std::vector<float> weight_scale_;  // per output channel
-  std::vector<float> weight_sum_;    // per output channel: the sum of its quantized weights
+  std::vector<std::int8_t> quantized_;  // [cout][cin]: the weights, once
+  std::vector<float> bias_;             // padded to whole row blocks
+  std::vector<float> weight_scale_;     // per output channel
+  std::vector<float> weight_sum_;       // per output channel: the sum of its quantized weights
   ProductBlock block_{0, 0};
   int row_blocks_ = 0;
   std::vector<std::uint32_t> packed_;  // [row block][quad][block rows]

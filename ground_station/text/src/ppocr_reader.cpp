@@ -83,7 +83,7 @@ PpocrRecognizer make_recognizer(const TextReadingConfig& params) {
     throw StartupError("text reader: ppocr_space_probability must be within 0..1");
   return PpocrRecognizer(
       files, locate(params, "ppocr_keys_v1.txt", "ppocr character list"),
-      {params.ppocr.latin_only, float(params.ppocr.space_probability), params.ppocr.int8});
+      {params.ppocr.latin_only, float(params.ppocr.space_probability), stand_in_layers(params)});
 }
 
 float quad_area(const TextQuad& quad) {

@@ -195,9 +195,7 @@ PpocrRecognizer::PpocrRecognizer(const std::map<int, std::string>& models_by_wid
   // keyfleet's stand-ins for OpenCV's 1x1, dense 3x3 and depthwise convolutions (in float: the
   // same probabilities to float rounding in about 0.7x the time); the scope covers the import and
   // the first pass of each network (OpenCV creates layers in both).
-  vision::DnnLayers layers = vision::DnnLayers::in_float();
-  layers.int8_pointwise = options.int8;
-  const vision::DnnLayersScope stand_ins(layers);
+  const vision::DnnLayersScope stand_ins(options.layers);
   for (const auto& [width, path] : models_by_width) {
     if (width <= 0 || width % 8 != 0)
       throw StartupError("ppocr recogniser: width " + std::to_string(width) +

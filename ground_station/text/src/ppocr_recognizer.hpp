@@ -49,7 +49,8 @@ std::vector<bool> latin_classes(const std::vector<std::string>& classes);
 struct RecognizerOptions {
   bool latin_only = true;       // emit only ppocr::latin_classes
   float space_probability = 0;  // as CtcOptions::space_probability
-  bool int8 = false;            // the wide 1x1 convolutions in 8-bit integers (DnnLayers)
+  // keyfleet's stand-in layers (in float: OpenCV's probabilities to float rounding).
+  vision::DnnLayers layers = vision::DnnLayers::in_float();
 };
 
 class PpocrRecognizer {
