@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <limits>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "keyfleet/common/error.hpp"
@@ -78,6 +79,21 @@ std::vector<std::string> non_loopback_ipv4_addresses() {
   return addresses;
 }
 
+// dds.shared_memory, unset: off on localhost (config.hpp says why), on with the network's
+// built-in transports.
+bool uses_shared_memory(const DdsSettings& s) {
+  return s.shared_memory.value_or(s.transport == DdsSettings::Transport::kNetwork);
+}
+
+// What the participant runs on, for the start-up log.
+std::string transports(const DdsSettings& s) {
+  const bool shm = uses_shared_memory(s);
+  if (s.transport == DdsSettings::Transport::kLocalhost)
+    return shm ? "localhost only: shared memory + UDPv4 on 127.0.0.1"
+               : "localhost only: UDPv4 on 127.0.0.1";
+  return shm ? "network, shared memory + UDPv4" : "network, UDPv4 only";
+}
+
 std::optional<LinkTuning> link_tuning(const DdsSettings& s) {
   if (s.link.rate_kbit_s > 0)
     return derive_link_tuning(s.link, s.security.enabled ? &kFleetGovernance : nullptr);
@@ -112,19 +128,21 @@ fdds::DomainParticipantQos participant_qos(const DdsSettings& s, const std::stri
   if (s.transport == DdsSettings::Transport::kLocalhost) {
     // No built-in transports: the defaults announce on every interface by multicast.
     qos.transport().use_builtin_transports = false;
-    auto shm = std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>();
-    shm->segment_size(kShmSegmentBytes);
+    if (uses_shared_memory(s)) {
+      auto shm = std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>();
+      shm->segment_size(kShmSegmentBytes);
+      qos.transport().user_transports.push_back(shm);
+    }
     auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
     udp->interfaceWhiteList.emplace_back("127.0.0.1");
     udp->sendBufferSize = kUdpBufferBytes;
     udp->receiveBufferSize = kUdpBufferBytes;
     udp->maxInitialPeersRange = kMaxInitialPeersRange;
-    qos.transport().user_transports.push_back(shm);
     qos.transport().user_transports.push_back(udp);
     qos.wire_protocol().builtin.initialPeersList.push_back(udp_locator("127.0.0.1"));
     qos.wire_protocol().builtin.metatrafficUnicastLocatorList.push_back(udp_locator("127.0.0.1"));
   } else {
-    if (!s.shared_memory) {
+    if (!uses_shared_memory(s)) {
       // Built-in transports include shared memory, which crosses network namespaces.
       qos.transport().use_builtin_transports = false;
       auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
@@ -209,10 +227,7 @@ Participant::Participant(const DdsSettings& settings, const std::string& name,
                        settings.partition + "'");
   }
   logger_->info("DDS participant '{}' on domain {} partition '{}' ({}{})", name, settings.domain_id,
-                settings.partition,
-                settings.transport == DdsSettings::Transport::kLocalhost ? "localhost only"
-                : settings.shared_memory                                 ? "network"
-                                                                         : "network, UDPv4 only",
+                settings.partition, transports(settings),
                 settings.security.enabled ? "; DDS-Security as '" + identity + "'" : std::string());
   if (tuning_)
     logger_->info("{}", describe(settings.link, *tuning_));

@@ -60,12 +60,23 @@ std::set<std::string> fastdds_shm_files() {
 
 TEST_F(FleetEndToEnd, SignalsStopEveryProcessCleanlyWithoutStaleSharedMemory) {
   const auto shm_before = fastdds_shm_files();
-  auto station = start_station(station_config());
+  // Shared memory on (localhost leaves it off unless asked), so that there is some to leak.
+  StationConfig station_settings = station_config();
+  station_settings.dds.shared_memory = true;
+  auto station = start_station(station_settings);
   AgentConfig config = agent_config("drone_0");
+  config.dds.shared_memory = true;
   config.source.realtime = true;
   config.source.max_frames = 100000;  // would fly for an hour
   auto agent = start_agent(config);
   ASSERT_TRUE(wait_until([&] { return stored_counts()["drone_0"] >= 3; }, seconds(30)));
+  auto new_shm_files = [&] {
+    std::vector<std::string> names;
+    for (const auto& name : fastdds_shm_files())
+      if (!shm_before.count(name)) names.push_back(name);
+    return names;
+  };
+  EXPECT_FALSE(new_shm_files().empty()) << "the processes use no shared memory";
 
   agent->signal(SIGINT);
   const auto agent_status = agent->wait_for(seconds(15));
@@ -76,9 +87,7 @@ TEST_F(FleetEndToEnd, SignalsStopEveryProcessCleanlyWithoutStaleSharedMemory) {
   ASSERT_TRUE(station_status.has_value()) << "station ignored SIGTERM";
   EXPECT_TRUE(station_status->ok()) << station_status->describe();
 
-  std::vector<std::string> leaked;
-  for (const auto& name : fastdds_shm_files())
-    if (!shm_before.count(name)) leaked.push_back(name);
+  const auto leaked = new_shm_files();
   EXPECT_TRUE(leaked.empty()) << "stale shared memory: " << leaked.front();
   // What the agent had not delivered when stopped stays in its outbox, not lost: every keyframe
   // it created is stored or pending. A keyframe can be both (stored, its ack not yet back when

@@ -7,13 +7,14 @@
 // libraries. Their YAML descriptions: shared_config_yaml.hpp (these), and each library's
 // *_config_yaml.hpp.
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
 namespace keyfleet {
 
 // How a process joins the DDS network. Fast DDS's own defaults announce on every interface by
-// multicast; these keep a one-machine mission on SHM and 127.0.0.1, and the discovery timings
+// multicast; these keep a one-machine mission on 127.0.0.1, and the discovery timings
 // avoid the multi-second stalls and the 20-s memory of a killed reader that the defaults give.
 // DDS-Security with Fast DDS's builtin plugins: PKI-DH authentication, permissions access
 // control, AES-GCM-GMAC encryption. The files are those of `keyfleet security init`
@@ -49,17 +50,20 @@ struct DdsLinkProfile {
 
 struct DdsSettings {
   enum class Transport {
-    kLocalhost,  // SHM + UDPv4 on 127.0.0.1 only, no multicast: one-machine missions and tests
+    kLocalhost,  // UDPv4 on 127.0.0.1 only, no multicast: one-machine missions and tests
     kNetwork,    // Fast DDS's built-in transports on all interfaces, plus initial_peers
   };
   int domain_id = 0;                   // 0..232; overridden by --domain / KEYFLEET_DOMAIN
   std::string partition = "keyfleet";  // overridden by --partition / KEYFLEET_PARTITION
   Transport transport = Transport::kLocalhost;
   std::vector<std::string> initial_peers;  // kNetwork: IPv4 addresses of other hosts
-  // kNetwork: also shared memory with peers Fast DDS takes for the same host. false = UDPv4
-  // only, on the non-loopback interfaces, so that processes in separate network namespaces
-  // really use their links.
-  bool shared_memory = true;
+  // Also shared memory with peers Fast DDS takes for the same host. Unset: off with kLocalhost,
+  // on with kNetwork. A process killed and restarted finds the shared-memory port it left a
+  // "zombie" and resets it, while its peers go on writing into the old one: it can receive
+  // nothing (Fast DDS issues #2811, #5053). A one-machine mission, all on one host, does without.
+  // kNetwork with false: UDPv4 only, on the non-loopback interfaces, so that processes in
+  // separate network namespaces really use their links.
+  std::optional<bool> shared_memory;
   double lease_duration_s = 4.0;       // a silent peer is dropped after this long
   double announcement_period_s = 1.0;  // participant announcements
   int keyframe_history_depth = 5;      // KEEP_LAST depth of the keyframe writer
