@@ -13,6 +13,11 @@
   initialisers: the shipped model is float32);
 - runs OpenCV DNN and PyTorch on fixed inputs and fails if they differ by more than --tolerance;
 - writes the JSON description beside the model (what the agent's TextSegmenter reads).
+
+A checkpoint of distill.py (one output, `width` in it) exports as a text-probability model: the
+sigmoid is part of the graph, and the description says `"output": "text_probability"` with the
+DB post-processing of the teacher it learnt from (PP-OCRv4's detector), so the agent fills its
+boxes as it does the teacher's.
 """
 import argparse
 import datetime
@@ -105,16 +110,22 @@ def main():
     args = ap.parse_args()
 
     state = torch.load(args.checkpoint, map_location="cpu")
-    net = MiniNet(2)
+    classes, width = state.get("classes", 2), state.get("width", 1.0)
+    distilled = classes == 1
+    net = MiniNet(classes, width)
     net.load_state_dict(state["net"])
     net.eval()
     net.set_fast_upsampling(False)  # the native transposed convolution for OpenCV
+    if distilled:
+        net = torch.nn.Sequential(net, torch.nn.Sigmoid()).eval()
 
     dummy = torch.zeros(1, 3, 256, 512)
+    output_name = "text_probability" if distilled else "logits"
     torch.onnx.export(net, dummy, args.out, opset_version=11, input_names=["input"],
-                      output_names=["logits"],
+                      output_names=[output_name],
                       dynamic_axes={"input": {0: "N", 2: "H", 3: "W"},
-                                    "logits": {0: "N", 2: "H", 3: "W"}})
+                                    output_name: {0: "N", 2: "H", 3: "W"}})
+    net.eval()  # the exporter restores the mode it found, and a fresh Sequential's is training
     model = onnx.load(args.out)
     folded = fold_identities(model)
     squared = 0 if args.plain_graph else square_depthwise(model)
@@ -145,36 +156,50 @@ def main():
     x = (pattern.astype(np.float32) / 255.0 - 0.5)[None]
     with torch.no_grad():
         logits = net(torch.from_numpy(x)).numpy()[0]
-    reference = {"pattern": "pixel(c, y, x) = (7 x + 13 y + 50 c) mod 256, BGR, at the input size",
-                 "text_pixels": int((logits[1] > logits[0]).sum()),
-                 "mean_logits": [float(logits[0].mean()), float(logits[1].mean())]}
+    if distilled:
+        reference = {"pattern": "pixel(c, y, x) = (7 x + 13 y + 50 c) mod 256, BGR, at the input "
+                                "size", "mean_probability": float(logits[0].mean())}
+    else:
+        reference = {"pattern": "pixel(c, y, x) = (7 x + 13 y + 50 c) mod 256, BGR, at the input "
+                                "size", "text_pixels": int((logits[1] > logits[0]).sum()),
+                     "mean_logits": [float(logits[0].mean()), float(logits[1].mean())]}
+    mini = net[0] if distilled else net
 
     meta = {
         "format": "keyfleet-segmenter",
         "version": 1,
-        "description": "MiniNet (ICRA 2019 layout) trained by models/mininet/train.py for text "
-                       "segmentation (data: training.data)",
+        "description": (f"MiniNet (ICRA 2019 layout, channels x {width}) distilled by "
+                        "models/mininet/distill.py from PP-OCRv4's detector: its text "
+                        "probability, DB boxes filled as the text mask" if distilled else
+                        "MiniNet (ICRA 2019 layout) trained by models/mininet/train.py for text "
+                        "segmentation (data: training.data)"),
         "input_width": args.input_width,
         "input_height": args.input_height,
         "size_multiple": 64,
         "scale": 1 / 255.0,
         "mean_bgr": [127.5, 127.5, 127.5],
-        "classes": ["background", "text"],
+        "classes": ["text"] if distilled else ["background", "text"],
         "target_classes": ["text"],
-        "parameters": count_parameters(net),
-        "gflops_512x256": round(count_flops(net, 256, 512) / 1e9, 3),
+        "parameters": count_parameters(mini),
+        "gflops_512x256": round(count_flops(mini, 256, 512) / 1e9, 3),
         "weights": "float16" if args.fp16 else "float32",
         "graph": "as exported" if args.plain_graph else
                  "depthwise 1x3 and 3x1 convolutions as 3x3 (zero rows/columns)",
         "training": {"steps": state["step"], "class_weights": state.get("class_weights"),
-                     "data": args.training_data,
-                     "validation": state.get("validation")},
+                     "data": args.training_data, "recipe": state.get("recipe"),
+                     "validation": {k: v for k, v in (state.get("validation") or {}).items()
+                                    if isinstance(v, (int, float)) and np.isfinite(v)}},
         "opencv_max_abs_diff": worst,
         "reference": reference,
         "exported": datetime.date.today().isoformat(),
     }
+    if distilled:  # PP-OCR's DB post-processing, as the teacher's description has it
+        meta["output"] = "text_probability"
+        meta["width_multiplier"] = width
+        meta["db"] = {"binary_threshold": 0.3, "box_threshold": 0.6, "unclip_ratio": 1.5,
+                      "min_size": 3}
     with open(os.path.splitext(args.out)[0] + ".json", "w") as f:
-        json.dump(meta, f, indent=1)
+        json.dump(meta, f, indent=1, allow_nan=False)
     print(f"wrote {args.out} ({os.path.getsize(args.out) / 1e6:.1f} MB) and its .json")
 
 

@@ -98,20 +98,26 @@ class Module(nn.Module):
 
 
 class MiniNet(nn.Module):
-    def __init__(self, classes=2):
+    """`width` scales every layer's channels (1.0: the 2019 code's; distill.py's smaller
+    students use less); `classes` 1 gives one logit, a text probability through a sigmoid."""
+
+    def __init__(self, classes=2, width=1.0):
         super().__init__()
-        self.d1, self.d2 = Down(3, 12), Down(12, 24)
-        self.d3, self.d4 = Down(24, 48), Down(48, 96)
-        self.branch1 = nn.Sequential(*[Module(96, 96, d) for d in (1, 2, 4, 8)])
-        self.d5 = nn.Sequential(Down(96, 192), Module(192, 192))
-        self.d6 = nn.Sequential(Down(192, 386), Module(386, 386), Module(386, 386))
-        self.up1 = nn.Sequential(Up(386, 192), Module(192, 192))
-        self.up2 = Up(384, 96)
-        self.up3 = Up(288, 96)
-        self.module_up = Module(96, 48)
-        self.up4 = Up(96, 32)
-        self.up5 = Up(56, 16)
-        self.output = Up(28, classes, activate=False)
+        c = (lambda n: n) if width == 1.0 else (lambda n: max(4, int(round(n * width))))
+        self.width = width
+        self.d1, self.d2 = Down(3, c(12)), Down(c(12), c(24))
+        self.d3, self.d4 = Down(c(24), c(48)), Down(c(48), c(96))
+        self.branch1 = nn.Sequential(*[Module(c(96), c(96), d) for d in (1, 2, 4, 8)])
+        self.d5 = nn.Sequential(Down(c(96), c(192)), Module(c(192), c(192)))
+        self.d6 = nn.Sequential(Down(c(192), c(386)), Module(c(386), c(386)),
+                                Module(c(386), c(386)))
+        self.up1 = nn.Sequential(Up(c(386), c(192)), Module(c(192), c(192)))
+        self.up2 = Up(2 * c(192), c(96))
+        self.up3 = Up(3 * c(96), c(96))
+        self.module_up = Module(c(96), c(48))
+        self.up4 = Up(c(48) + c(48), c(32))
+        self.up5 = Up(c(32) + c(24), c(16))
+        self.output = Up(c(16) + c(12), classes, activate=False)
 
     def set_fast_upsampling(self, fast):
         for m in self.modules():

@@ -5,10 +5,12 @@ against the UNMODIFIED PaddleOCR models: ONNX Runtime is not packaged by Debian
 and onnx 1.12 has no reference evaluator.
 
     outputs = run("model.onnx", {"x": array})   # {output name: np.ndarray}
+    net = Graph("model.onnx").to("cuda")       # a frozen torch module: net(x) -> first output
 
 Float32 on the CPU with torch; shape arithmetic (Shape/Slice/Concat/...) runs on
 int64 tensors, so dynamic input shapes work.  It implements exactly the op types
-of PP-OCRv4's det (opset 11) and rec (opset 9) models, plus Gather/Unsqueeze,
+of PP-OCRv4's det (opset 11) and rec (opset 9) models, plus Gather/Unsqueeze and
+the HardSwish of convert_ppocr.py's files,
 with the semantics of the model's opset where they differ (Clip, Slice,
 Squeeze, Unsqueeze, Softmax).  Any other op, or an attribute value that the
 models do not use and this file does not implement, raises NotImplementedError
@@ -131,7 +133,7 @@ def _resize(node, a, opset, x, roi=None, scales=None, sizes=None):
             idx = torch.floor(src + 0.5)
         else:  # round_prefer_floor
             idx = torch.ceil(src - 0.5)
-        y = y.index_select(axis, idx.clamp(0, n_in - 1).long())
+        y = y.index_select(axis, idx.clamp(0, n_in - 1).long().to(x.device))
     return y
 
 
@@ -247,6 +249,7 @@ OPS = {  # op type -> f(node, attributes, opset, *inputs); a missing optional in
     "Relu": lambda n, a, o, x: torch.relu(x),
     "Sigmoid": lambda n, a, o, x: torch.sigmoid(x),
     "HardSigmoid": lambda n, a, o, x: torch.clamp(a.get("alpha", 0.2) * x + a.get("beta", 0.5), 0, 1),
+    "HardSwish": lambda n, a, o, x: x * torch.clamp(x / 6 + 0.5, 0, 1),
     "Clip": lambda n, a, o, x, *b: _clip(a, o, x, *b),
     "Softmax": lambda n, a, o, x: _softmax(a, o, x),
     "MatMul": lambda n, a, o, x, y: torch.matmul(x, y),
@@ -318,3 +321,38 @@ def run(model, feeds):
                 if name and last_use.get(name) == step and name not in keep:
                     del values[name]
     return {o.name: values[o.name].numpy() for o in graph.output}
+
+
+class Graph(torch.nn.Module):
+    """A graph as a frozen torch module on any device (distill.py's teacher): the initializers
+    are buffers, forward(x) feeds the first graph input and returns the first output, through
+    the same operator table as run()."""
+
+    def __init__(self, model):
+        super().__init__()
+        model = onnx.load(model) if isinstance(model, str) else model
+        self.opset = next((o.version for o in model.opset_import if o.domain in ("", "ai.onnx")),
+                          None)
+        graph = model.graph
+        self.buffer_names = {}
+        for k, t in enumerate(graph.initializer):
+            self.register_buffer("w%d" % k, torch.from_numpy(numpy_helper.to_array(t).copy()))
+            self.buffer_names[t.name] = "w%d" % k
+        self.input_name = next(i.name for i in graph.input if i.name not in self.buffer_names)
+        self.output_name = graph.output[0].name
+        self.order = topological_order(graph, set(self.buffer_names) | {self.input_name})
+        for node in self.order:
+            if node.domain not in ("", "ai.onnx") or node.op_type not in OPS:
+                raise NotImplementedError("onnx_reference: op type '%s' (node '%s') is not "
+                                          "supported" % (node.op_type, node.name))
+
+    def forward(self, x):
+        values = {name: getattr(self, b) for name, b in self.buffer_names.items()}
+        values[self.input_name] = x
+        for node in self.order:
+            args = [values[i] if i else None for i in node.input]
+            result = OPS[node.op_type](node, _attrs(node), self.opset, *args)
+            for name, value in zip(node.output, result if isinstance(result, tuple) else (result,)):
+                if name:
+                    values[name] = value
+        return values[self.output_name]
