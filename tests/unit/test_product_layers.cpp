@@ -208,13 +208,15 @@ cv::Mat convolve_1x1(const cv::Mat& input, const cv::Mat& weights, const cv::Mat
 TEST(PointwiseStandIn, MatchesOpenCvsConvolution) {
   if (!matrix_product_layers_supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layer stays";
   // Output channels in whole blocks of 6 and 4 and in partial ones (bfloat16: also 8 and 12);
-  // pixel counts that fill whole column blocks (16, 24, 48; 32, 64, 96) and that do not; odd
-  // input channels.
+  // pixel counts that fill whole column blocks (16, 24, 48; 32, 64, 96) and that do not (in
+  // float, whole row blocks: a remainder block of its own, alone, after several stripes, with the
+  // input channels summed in several chunks); odd input channels.
   const std::vector<Shape> shapes = {
-      {3, 12, 8, 16, true, true},   {12, 24, 4, 12, false, false}, {5, 4, 3, 8, true, false},
-      {7, 2, 6, 8, false, true},    {9, 5, 3, 7, true, true},      {386, 386, 4, 8, true, false},
-      {300, 7, 1, 1, false, true},  {28, 1, 5, 11, true, false},   {31, 16, 9, 21, true, true},
-      {96, 48, 8, 12, false, true}, {192, 8, 2, 24, true, false},  {25, 9, 1, 1, true, true}};
+      {3, 12, 8, 16, true, true},    {12, 24, 4, 12, false, false}, {5, 4, 3, 8, true, false},
+      {7, 2, 6, 8, false, true},     {9, 5, 3, 7, true, true},      {386, 386, 4, 8, true, false},
+      {300, 7, 1, 1, false, true},   {28, 1, 5, 11, true, false},   {31, 16, 9, 21, true, true},
+      {96, 48, 8, 12, false, true},  {192, 8, 2, 24, true, false},  {25, 9, 1, 1, true, true},
+      {200, 12, 13, 11, true, true}, {600, 6, 7, 9, false, true},   {16, 32, 10, 9, true, false}};
   cv::RNG rng(14);
   for (const bool bfloat16 : precisions())
     for (const Shape& s : shapes) {
@@ -289,10 +291,12 @@ TEST(PointwiseStandIn, InInt8IsTheQuantizedProductAndCloseToOpenCvs) {
       GTEST_SKIP() << "this CPU cannot run the int8 products with " << wanted << ": " << kernels;
   }
   // 64 or more channels each way: output channels in whole and partial blocks of 4 and 2, input
-  // channels in whole and partial quads, columns in whole and partial blocks of 16 and 32.
+  // channels in whole and partial quads, columns in whole and partial blocks of 16 and 32 (a
+  // remainder block alone, and after several stripes).
   const std::vector<Shape> shapes = {{64, 64, 4, 8, true, false},   {67, 66, 3, 7, false, false},
                                      {96, 130, 5, 13, true, false}, {385, 70, 2, 16, true, false},
-                                     {128, 64, 1, 1, false, false}, {64, 97, 6, 11, true, false}};
+                                     {128, 64, 1, 1, false, false}, {64, 97, 6, 11, true, false},
+                                     {72, 96, 13, 11, true, false}};
   DnnLayers int8 = DnnLayers::in_float();
   int8.int8_pointwise = true;
   cv::RNG rng(33);

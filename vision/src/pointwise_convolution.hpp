@@ -27,14 +27,22 @@ class PointwiseConvolution : public ProductKernel {
 
  private:
   void pack(ProductBlock block);  // the weights for blocks of that shape
+  // Float, the outputs whole row blocks: src and dst used where they are.
+  void run_in_place(const float* src, int pixels, float* dst,
+                    const cv::dnn::ActivationLayer* activation);
 
-  // The block shape the weights are packed for (chosen per input size: the least padding).
+  // The block shape the weights are packed for (chosen per input size: in float, rows that divide
+  // the outputs where a shape's do, else the least padding).
   ProductBlock block_{0, 0};
   int row_blocks_ = 0;
   PackedWeights packed_;
   ProductInput input_;
-  // Used when the columns or rows do not fill whole blocks: the products before they go to dst.
+  // Used when the columns or rows do not fill whole blocks: the products before they go to dst
+  // (all of them, or in place only the columns' remainder).
   std::vector<float> products_;
+  // In place: the columns' remainder with zero columns after.
+  ProductInput tail_input_;
+  std::vector<float> tail_input_buffer_;
 };
 
 }  // namespace keyfleet::vision

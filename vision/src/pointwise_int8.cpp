@@ -47,7 +47,11 @@ void Int8PointwiseConvolution::pack(ProductBlock block) {
 
 void Int8PointwiseConvolution::run(const float* src, int pixels, float* dst,
                                    const cv::dnn::ActivationLayer* activation) {
-  const ProductBlock block = int8_product_block(cout_, pixels);
+  // Rows that divide the outputs where a shape's do (the products then go straight to dst, the
+  // columns' remainder through a small buffer), else the least padding.
+  const ProductBlock block = cout_ % 4 == 0   ? ProductBlock{4, 16}
+                             : cout_ % 2 == 0 ? ProductBlock{2, 32}
+                                              : int8_product_block(cout_, pixels);
   if (block.rows != block_.rows) pack(block);
   const int width = block_.columns;
   const int columns = (pixels + width - 1) / width * width;
@@ -68,33 +72,49 @@ void Int8PointwiseConvolution::run(const float* src, int pixels, float* dst,
     offset_[co] = bias_[co] - scale_[co] * float(zero) * weight_sum_[co];
   }
 
-  const bool direct = columns == pixels && cout_ % block_.rows == 0;
-  float* out = dst;
-  if (!direct) {
+  // Whole row blocks: the products of whole column blocks straight into dst, those of the
+  // columns' remainder into a buffer of one block's columns, copied into dst after. Else all of
+  // them into a buffer first.
+  const bool in_place = cout_ % block_.rows == 0;
+  const int whole = pixels / width, tail = pixels - whole * width;
+  if (!in_place)
     products_.resize(std::size_t(row_blocks_) * block_.rows * columns);
-    out = products_.data();
-  }
+  else if (tail)
+    products_.resize(std::size_t(cout_) * width);
   // Quads in chunks whose block columns stay within about 16 KB (L1); stripes of a few blocks,
   // finished (activation included) before the next.
   const int depth = summed_chunk(quads_, 1, width);
   constexpr int kStripe = 4;
-  const int stripes = (columns / width + kStripe - 1) / kStripe;
+  const int blocks = columns / width;
+  const int stripes = (blocks + kStripe - 1) / kStripe;
   cv::parallel_for_(cv::Range(0, stripes), [&](const cv::Range& range) {
     for (int stripe = range.start; stripe < range.end; ++stripe) {
-      const int first = stripe * kStripe, last = std::min(columns / width, first + kStripe);
+      const int first = stripe * kStripe, last = std::min(blocks, first + kStripe);
       for (int k0 = 0; k0 < quads_; k0 += depth) {
         const int k = std::min(depth, quads_ - k0);
-        for (int blk = first; blk < last; ++blk)
+        for (int blk = first; blk < last; ++blk) {
+          // Where this block's products go, and how far apart their rows are.
+          float* base = products_.data() + blk * width;
+          std::size_t stride = columns;
+          if (in_place && blk < whole)
+            base = dst + blk * width, stride = pixels;
+          else if (in_place)
+            base = products_.data(), stride = width;
           for (int rb = 0; rb < row_blocks_; ++rb) {
             const std::uint32_t* a = packed_.data() + (std::size_t(rb) * quads_ + k0) * block_.rows;
             const std::uint32_t* b = input_.data() + std::size_t(k0) * columns + blk * width;
             const int r0 = rb * block_.rows;
-            float* o = out + std::size_t(r0) * columns + blk * width;
             product_block_int8(block_, a, b, k, columns, scale_.data() + r0,
-                               k0 == 0 ? offset_.data() + r0 : nullptr, o, columns);
+                               k0 == 0 ? offset_.data() + r0 : nullptr,
+                               base + std::size_t(r0) * stride, stride);
           }
+        }
       }
-      finish_columns(direct ? nullptr : out, columns, cout_, first * width,
+      if (in_place && tail && last == blocks)
+        for (int c = 0; c < cout_; ++c)
+          std::copy_n(products_.data() + std::size_t(c) * width, tail,
+                      dst + std::size_t(c) * pixels + whole * width);
+      finish_columns(in_place ? nullptr : products_.data(), columns, cout_, first * width,
                      std::min(pixels, last * width), dst, pixels, activation);
     }
   });
