@@ -84,7 +84,7 @@ void print_variant_timings(const std::vector<Variant>& variants, const std::vect
 }
 
 // ms per layer type on one thread (OpenCV's per-layer timers), median over the repetitions, the
-// variants taking turns.
+// variants taking turns; then each variant's costliest layers.
 void print_layer_profile(const std::vector<Variant>& variants, cv::Size size, int repetitions) {
   std::vector<std::unique_ptr<vision::DnnTextSegmenter>> nets;
   const cv::Mat frame(size, CV_8UC3, cv::Scalar(90, 120, 150));
@@ -93,7 +93,9 @@ void print_layer_profile(const std::vector<Variant>& variants, cv::Size size, in
     nets.back()->segment({frame});  // warm-up
   }
   cv::setNumThreads(1);
-  std::vector<std::map<std::string, std::vector<double>>> ms(variants.size());
+  std::vector<std::map<std::string, std::vector<double>>> ms(variants.size()),
+      by_layer(variants.size());
+  std::vector<std::map<std::string, std::string>> layer_type(variants.size());
   for (int i = 0; i < repetitions; ++i)
     for (std::size_t k = 0; k < nets.size(); ++k) {
       nets[k]->segment({frame});
@@ -103,15 +105,32 @@ void print_layer_profile(const std::vector<Variant>& variants, cv::Size size, in
         total += t;
       }
       ms[k]["(all layers)"].push_back(total);
+      for (const auto& layer : nets[k]->last_forward_layers()) {
+        by_layer[k][layer.name].push_back(layer.ms);
+        layer_type[k][layer.name] = layer.type;
+      }
     }
+  const auto median = [](std::vector<double>& t) {
+    std::nth_element(t.begin(), t.begin() + long(t.size() / 2), t.end());
+    return t[t.size() / 2];
+  };
   std::printf("\nms per layer type, 1 thread, %dx%d (median of %d, the variants taking turns)\n",
               size.width, size.height, repetitions);
   for (std::size_t k = 0; k < variants.size(); ++k) {
     std::printf("%s\n", variants[k].label.c_str());
-    for (auto& [type, t] : ms[k]) {
-      std::nth_element(t.begin(), t.begin() + long(t.size() / 2), t.end());
-      if (t[t.size() / 2] >= 0.005) std::printf("  %-32s %8.2f\n", type.c_str(), t[t.size() / 2]);
-    }
+    for (auto& [type, t] : ms[k])
+      if (median(t) >= 0.005) std::printf("  %-32s %8.2f\n", type.c_str(), median(t));
+  }
+  constexpr std::size_t kCostliest = 8;
+  for (std::size_t k = 0; k < variants.size(); ++k) {
+    std::vector<std::pair<double, std::string>> layers;
+    for (auto& [name, t] : by_layer[k]) layers.emplace_back(median(t), name);
+    std::sort(layers.rbegin(), layers.rend());
+    std::printf("%s: the %zu costliest layers\n", variants[k].label.c_str(),
+                std::min(kCostliest, layers.size()));
+    for (std::size_t i = 0; i < layers.size() && i < kCostliest; ++i)
+      std::printf("  %-40s %-32s %8.2f\n", layers[i].second.c_str(),
+                  layer_type[k][layers[i].second].c_str(), layers[i].first);
   }
 }
 
@@ -256,7 +275,8 @@ void add_segmenter_commands(CLI::App& app) {
   eval->add_option("--repetitions", o->repetitions, "timed forward passes")
       ->check(CLI::Range(1, 10000));
   eval->add_flag("--profile", o->profile,
-                 "ms per layer type of each variant at the first size on one thread");
+                 "ms per layer type of each variant at the first size on one thread, and its 8 "
+                 "costliest layers");
   eval->add_option("--sizes", o->sizes, "input sizes WIDTHxHEIGHT")->capture_default_str();
   eval->callback([o] { run_reporting([&] { run_segmenter_eval(*o); }); });
 }

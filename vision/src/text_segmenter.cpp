@@ -107,14 +107,21 @@ DnnTextSegmenter::DnnTextSegmenter(const std::string& model_path, int threads,
   }
 }
 
-std::map<std::string, double> DnnTextSegmenter::last_forward_ms_by_type() const {
+std::vector<DnnTextSegmenter::LayerTime> DnnTextSegmenter::last_forward_layers() const {
   cv::dnn::Net net = net_;  // a handle: getPerfProfile is not const
   std::vector<double> ticks;
   net.getPerfProfile(ticks);
   const std::vector<cv::String> names = net.getLayerNames();
-  std::map<std::string, double> ms;
+  std::vector<LayerTime> layers;
   for (std::size_t i = 0; i < names.size() && i < ticks.size(); ++i)
-    ms[net.getLayer(names[i])->type] += ticks[i] * 1000.0 / cv::getTickFrequency();
+    layers.push_back(
+        {names[i], net.getLayer(names[i])->type, ticks[i] * 1000.0 / cv::getTickFrequency()});
+  return layers;
+}
+
+std::map<std::string, double> DnnTextSegmenter::last_forward_ms_by_type() const {
+  std::map<std::string, double> ms;
+  for (const auto& layer : last_forward_layers()) ms[layer.type] += layer.ms;
   return ms;
 }
 

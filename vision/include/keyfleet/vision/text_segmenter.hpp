@@ -66,6 +66,12 @@ class DnnTextSegmenter final : public TextSegmenter {
   // ms per layer type in the last forward pass (OpenCV's per-layer timers; keyfleet's stand-ins
   // are the "Keyfleet..." types, a SELU fused into the layer before it counts there).
   std::map<std::string, double> last_forward_ms_by_type() const;
+  // The same per layer, in the network's order: its name, type and ms.
+  struct LayerTime {
+    std::string name, type;
+    double ms = 0;
+  };
+  std::vector<LayerTime> last_forward_layers() const;
 
  private:
   SegmenterInfo info_;
