@@ -55,8 +55,8 @@ void AnalysisStore::save(const AnalysisResult& r) {
     order.step();
     db_.prepare(
            "INSERT OR REPLACE INTO keyframe_analysis(robot_id, sequence_number, capture_time_ns, "
-           "status, detail, analysed_order, words, candidates_checked, text_ms, places_ms) "
-           "VALUES(?,?,?,?,?,?,?,?,?,?)")
+           "status, detail, analysed_order, words, candidates_checked, text_ms, places_ms, "
+           "text_cpu_ms) VALUES(?,?,?,?,?,?,?,?,?,?,?)")
         .bind(1, r.key.robot_id)
         .bind(2, seq)
         .bind(3, r.capture_time_ns)
@@ -67,6 +67,7 @@ void AnalysisStore::save(const AnalysisResult& r) {
         .bind(8, static_cast<std::int64_t>(r.candidates_checked))
         .bind(9, r.text_ms)
         .bind(10, r.places_ms)
+        .bind(11, r.text_cpu_ms)
         .step();
     if (r.status == AnalysisStatus::kDone) {
       // A keyframe analysed again (after a restart mid-analysis) replaces its old words.

@@ -3,9 +3,17 @@
 #include <opencv2/imgproc.hpp>
 
 #include <chrono>
+#include <ctime>
 
 namespace keyfleet::station {
 namespace {
+
+// CPU time of the calling thread, ms.
+double thread_cpu_ms() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
+}
 
 double elapsed_ms(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
@@ -61,8 +69,10 @@ AnalysisResult KeyframeAnalyzer::analyse(const AnalysisJob& job) {
   }
   if (reader_) {
     const auto start = std::chrono::steady_clock::now();
+    const double cpu_start = thread_cpu_ms();
     result.words = reader_->read_with_hints(image, hint_rects(job.text_regions));
     result.text_ms = elapsed_ms(start);
+    result.text_cpu_ms = thread_cpu_ms() - cpu_start;
   }
   return result;
 }

@@ -119,8 +119,10 @@ void StationAnalysis::apply(const AnalysisResult& r) {
     }
   }
   logger_->debug(
-      "analysed {}: {} word(s), {} candidate(s) checked, text {:.0f} ms, places {:.0f} ms",
-      to_string(r.key), r.words.size(), r.candidates_checked, r.text_ms, r.places_ms);
+      "analysed {}: {} word(s), {} candidate(s) checked, text {:.0f} ms ({:.0f} ms of CPU), "
+      "places {:.0f} ms",
+      to_string(r.key), r.words.size(), r.candidates_checked, r.text_ms, r.text_cpu_ms,
+      r.places_ms);
 }
 
 void StationAnalysis::backfill() {

@@ -151,12 +151,22 @@ CREATE TABLE IF NOT EXISTS keyframe_descriptors (
   PRIMARY KEY (robot_id, sequence_number)
 );)sql";
 
+// Version 9: the reading's CPU time beside its wall time.
+void add_text_cpu_ms(SqliteDb& db) {
+  db.add_column_if_missing("keyframe_analysis", "text_cpu_ms", "REAL NOT NULL DEFAULT 0");
+}
+
 // Files written before versions were kept hold some mix of these (branches merged
 // in another order than they were written), so each step leaves alone what a file has.
 const std::vector<Migration>& migrations() {
   static const std::vector<Migration> kAll = [] {
-    std::vector<Migration> all = {{1, kV1, {}}, {2, kV2, {}}, {3, kV3, {}},
-                                  {5, kV5, {}}, {6, kV6, {}}, {7, kV7, {}}};
+    std::vector<Migration> all = {{1, kV1, {}},
+                                  {2, kV2, {}},
+                                  {3, kV3, {}},
+                                  {5, kV5, {}},
+                                  {6, kV6, {}},
+                                  {7, kV7, {}},
+                                  {9, "", add_text_cpu_ms}};
     for (auto& m : column_migrations<Keyframe>("keyframes", RecordStore::kStation))
       all.push_back(std::move(m));
     for (auto& m : column_migrations<AgentStats>("agent_stats", RecordStore::kStation))

@@ -29,6 +29,7 @@ TEST(FleetFigures, RealTimeFactorsCpuAndStagesFromHandMadeTimings) {
   station.cpu_s = 1.2;
   station.keyframes = 4;
   station.text_ms = 800;
+  station.text_cpu_ms = 600;
   station.places_ms = 40;
   const auto r =
       fleet_figures(2, true, {agent(10.0, 0, 1.0), agent(12.5, 30, 3.0)}, station, 13.0, 2, 0.98);
@@ -41,6 +42,7 @@ TEST(FleetFigures, RealTimeFactorsCpuAndStagesFromHandMadeTimings) {
   EXPECT_DOUBLE_EQ(r.stage_ms_per_frame.at("trigger"), 2.0);
   EXPECT_DOUBLE_EQ(r.station_cpu_ms_per_frame, 2.0);
   EXPECT_DOUBLE_EQ(r.station_text_ms_per_keyframe, 200);
+  EXPECT_DOUBLE_EQ(r.station_text_cpu_ms_per_keyframe, 150);
   EXPECT_DOUBLE_EQ(r.station_places_ms_per_keyframe, 10);
   EXPECT_NEAR(r.frames_per_s_per_core, 600.0 / 13.0 / 2.0, 1e-12);
   EXPECT_FALSE(r.keeps_realtime);

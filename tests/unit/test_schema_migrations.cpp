@@ -89,7 +89,18 @@ CREATE TABLE conflicts (robot_id TEXT NOT NULL, sequence_number INTEGER NOT NULL
     R"sql(
 CREATE TABLE keyframe_descriptors (robot_id TEXT NOT NULL, sequence_number INTEGER NOT NULL,
   dimensions INTEGER NOT NULL, descriptor BLOB NOT NULL,
-  PRIMARY KEY (robot_id, sequence_number));)sql"};
+  PRIMARY KEY (robot_id, sequence_number));)sql",
+    // 8: the link adaptation's statistics
+    R"sql(
+ALTER TABLE agent_stats ADD COLUMN keyframes_reduced INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE agent_stats ADD COLUMN keyframes_thinned INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE agent_stats ADD COLUMN level_changes INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE agent_stats ADD COLUMN send_quality INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE agent_stats ADD COLUMN send_scale REAL NOT NULL DEFAULT 0;
+ALTER TABLE agent_stats ADD COLUMN send_density INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE agent_stats ADD COLUMN link_bytes_per_s REAL NOT NULL DEFAULT 0;
+ALTER TABLE agent_stats ADD COLUMN link_rtt_ms REAL NOT NULL DEFAULT 0;
+ALTER TABLE agent_stats ADD COLUMN backlog_s REAL NOT NULL DEFAULT 0;)sql"};
 
 int user_version(const std::string& path) {
   SqliteDb db(path, SqliteDb::Mode::kReadOnly);
@@ -135,6 +146,19 @@ void expect_old_rows_kept_and_new_ones_stored(const std::string& path, bool had_
   EXPECT_EQ(store.load("new", 0)->text_regions, k.text_regions);
   station::AnalysisStore analysis(path);
   EXPECT_EQ(analysis.search_words("EXIT", 10).size(), had_words ? 1u : 0u);
+  // Version 9: the reading's CPU time is stored beside its wall time.
+  station::AnalysisResult result;
+  result.key = {"new", 0};
+  result.text_ms = 12.5;
+  result.text_cpu_ms = 9.25;
+  analysis.save(result);
+  SqliteDb db(path, SqliteDb::Mode::kReadOnly);
+  auto q = db.prepare(
+      "SELECT text_ms, text_cpu_ms FROM keyframe_analysis WHERE robot_id = 'new' AND "
+      "sequence_number = 0");
+  ASSERT_TRUE(q.step());
+  EXPECT_DOUBLE_EQ(q.real(0), 12.5);
+  EXPECT_DOUBLE_EQ(q.real(1), 9.25);
 }
 
 TEST(StationSchema, EveryEarlierLayoutWithoutAVersionMigratesKeepingItsRows) {

@@ -32,11 +32,13 @@ StationFigures read_station(const ProcessFigures& station) {
   try {
     SqliteDb db(database.string(), SqliteDb::Mode::kReadOnly);
     auto query = db.prepare(
-        "SELECT COUNT(*), COALESCE(SUM(text_ms), 0), COALESCE(SUM(places_ms), 0) "
+        "SELECT COUNT(*), COALESCE(SUM(text_ms), 0), COALESCE(SUM(places_ms), 0), "
+        "COALESCE(SUM(text_cpu_ms), 0) "
         "FROM keyframe_analysis WHERE status = 'done'");
     if (query.step()) {
       figures.keyframes = std::uint64_t(query.int64(0));
       figures.text_ms = query.real(1);
+      figures.text_cpu_ms = query.real(3);
       figures.places_ms = query.real(2);
     }
   } catch (const SqliteError&) {
@@ -103,6 +105,7 @@ FleetRunFigures fleet_figures(int drones, bool realtime,
   r.station_keyframes = station.keyframes;
   r.station_text_ms_per_keyframe = per(station.text_ms, double(station.keyframes));
   r.station_places_ms_per_keyframe = per(station.places_ms, double(station.keyframes));
+  r.station_text_cpu_ms_per_keyframe = per(station.text_cpu_ms, double(station.keyframes));
   r.frames_per_s_per_core = per(per(frames, wall_s), double(std::max(cores, 1u)));
   r.keeps_realtime = realtime && !agents.empty() && r.rtf_min >= realtime_threshold;
   return r;
@@ -125,22 +128,23 @@ std::optional<int> largest_realtime(const std::vector<FleetRunFigures>& runs) {
 std::string format_fleet_table(const std::vector<FleetRunFigures>& runs, unsigned cores) {
   std::string out;
   char line[512];
-  std::snprintf(line, sizeof line, "%-9s %3s %7s %6s %6s %7s %7s %8s %9s %9s %8s %9s %9s %s\n",
+  std::snprintf(line, sizeof line, "%-9s %3s %7s %6s %6s %7s %7s %8s %9s %9s %8s %9s %9s %9s %s\n",
                 "mode", "N", "wall s", "RTF", "RTFmin", "frames", "late", "lag ms", "agent ms/f",
-                "stn ms/f", "stn kf", "OCR ms/kf", "fps/core", "real time");
+                "stn ms/f", "stn kf", "OCR ms/kf", "OCR cpu", "fps/core", "real time");
   out += line;
   std::set<std::string> stages;
   for (const auto& r : runs) {
     for (const auto& [name, ms] : r.stage_ms_per_frame) stages.insert(name);
-    std::snprintf(line, sizeof line,
-                  "%-9s %3d %7.1f %6.2f %6.2f %7llu %7llu %8.0f %9.2f %9.2f %8llu %9.0f %9.1f %s\n",
-                  r.realtime ? "realtime" : "fast", r.drones, r.wall_s, r.rtf_mean, r.rtf_min,
-                  static_cast<unsigned long long>(r.frames),
-                  static_cast<unsigned long long>(r.late_frames), r.max_lag_ms,
-                  r.agent_cpu_ms_per_frame, r.station_cpu_ms_per_frame,
-                  static_cast<unsigned long long>(r.station_keyframes),
-                  r.station_text_ms_per_keyframe, r.frames_per_s_per_core,
-                  !r.realtime ? "-" : (r.keeps_realtime && r.failures.empty() ? "yes" : "NO"));
+    std::snprintf(
+        line, sizeof line,
+        "%-9s %3d %7.1f %6.2f %6.2f %7llu %7llu %8.0f %9.2f %9.2f %8llu %9.0f %9.0f %9.1f "
+        "%s\n",
+        r.realtime ? "realtime" : "fast", r.drones, r.wall_s, r.rtf_mean, r.rtf_min,
+        static_cast<unsigned long long>(r.frames), static_cast<unsigned long long>(r.late_frames),
+        r.max_lag_ms, r.agent_cpu_ms_per_frame, r.station_cpu_ms_per_frame,
+        static_cast<unsigned long long>(r.station_keyframes), r.station_text_ms_per_keyframe,
+        r.station_text_cpu_ms_per_keyframe, r.frames_per_s_per_core,
+        !r.realtime ? "-" : (r.keeps_realtime && r.failures.empty() ? "yes" : "NO"));
     out += line;
   }
   out +=

@@ -62,7 +62,9 @@ struct AnalysisResult {
   std::vector<float> descriptor;    // the holistic place descriptor (empty with bow retrieval)
   std::optional<PlaceMatch> place;  // the best verified match, when one passed
   std::size_t candidates_checked = 0;
-  double text_ms = 0;
+  double text_ms = 0;      // reading the text, wall clock (waits for the CPU included)
+  double text_cpu_ms = 0;  // the same, CPU time of the worker's thread (the reader's own threads,
+                           // with analysis.text.threads above 1, not counted)
   double places_ms = 0;
 };
 

@@ -45,11 +45,12 @@ struct AgentStreamFigures {
 // Throws std::runtime_error naming the file when it is missing or malformed.
 AgentStreamFigures read_stream_summary(const std::string& path, const std::string& robot_id);
 
-// The station's analysis, summed over the keyframes it analysed (wall ms in its workers).
+// The station's analysis, summed over the keyframes it analysed (wall ms in its workers, and the
+// reading's CPU ms on the worker's thread).
 struct StationFigures {
   double cpu_s = 0;
   std::uint64_t keyframes = 0;
-  double text_ms = 0, places_ms = 0;
+  double text_ms = 0, places_ms = 0, text_cpu_ms = 0;
 };
 
 struct FleetRunFigures {
@@ -64,6 +65,7 @@ struct FleetRunFigures {
   double station_cpu_ms_per_frame = 0;
   std::uint64_t station_keyframes = 0;
   double station_text_ms_per_keyframe = 0, station_places_ms_per_keyframe = 0;
+  double station_text_cpu_ms_per_keyframe = 0;
   double frames_per_s_per_core = 0;  // all agents' frames / wall time / cores
   bool keeps_realtime = false;
   std::vector<std::string> failures;
