@@ -3,17 +3,11 @@
 #include <opencv2/imgproc.hpp>
 
 #include <chrono>
-#include <ctime>
+
+#include "keyfleet/common/clock.hpp"
 
 namespace keyfleet::station {
 namespace {
-
-// CPU time of the calling thread, ms.
-double thread_cpu_ms() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
-}
 
 double elapsed_ms(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)

@@ -288,6 +288,21 @@ def topological_order(graph, available):
     return order
 
 
+def _check_supported(node):
+    if node.domain not in ("", "ai.onnx") or node.op_type not in OPS:
+        raise NotImplementedError("onnx_reference: op type '%s' (domain '%s', node '%s') "
+                                  "is not supported" % (node.op_type, node.domain, node.name))
+
+
+def _evaluate(node, values, opset):
+    """One node: its inputs read from `values`, its outputs stored there."""
+    args = [values[i] if i else None for i in node.input]
+    result = OPS[node.op_type](node, _attrs(node), opset, *args)
+    for name, value in zip(node.output, result if isinstance(result, tuple) else (result,)):
+        if name:
+            values[name] = value
+
+
 def run(model, feeds):
     """Execute `model` (path or ModelProto) on {input name: np.ndarray}; returns
     {output name: np.ndarray} for every graph output."""
@@ -308,15 +323,8 @@ def run(model, feeds):
     keep = {o.name for o in graph.output}
     with torch.no_grad():
         for step, node in enumerate(order):
-            if node.domain not in ("", "ai.onnx") or node.op_type not in OPS:
-                raise NotImplementedError("onnx_reference: op type '%s' (domain '%s', node '%s') "
-                                          "is not supported" % (node.op_type, node.domain, node.name))
-            args = [values[i] if i else None for i in node.input]
-            result = OPS[node.op_type](node, _attrs(node), opset, *args)
-            results = result if isinstance(result, tuple) else (result,)
-            for name, value in zip(node.output, results):
-                if name:
-                    values[name] = value
+            _check_supported(node)
+            _evaluate(node, values, opset)
             for name in set(node.input):  # free what no later node reads
                 if name and last_use.get(name) == step and name not in keep:
                     del values[name]
@@ -342,17 +350,11 @@ class Graph(torch.nn.Module):
         self.output_name = graph.output[0].name
         self.order = topological_order(graph, set(self.buffer_names) | {self.input_name})
         for node in self.order:
-            if node.domain not in ("", "ai.onnx") or node.op_type not in OPS:
-                raise NotImplementedError("onnx_reference: op type '%s' (node '%s') is not "
-                                          "supported" % (node.op_type, node.name))
+            _check_supported(node)
 
     def forward(self, x):
         values = {name: getattr(self, b) for name, b in self.buffer_names.items()}
         values[self.input_name] = x
         for node in self.order:
-            args = [values[i] if i else None for i in node.input]
-            result = OPS[node.op_type](node, _attrs(node), self.opset, *args)
-            for name, value in zip(node.output, result if isinstance(result, tuple) else (result,)):
-                if name:
-                    values[name] = value
+            _evaluate(node, values, self.opset)
         return values[self.output_name]

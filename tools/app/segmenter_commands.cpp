@@ -119,7 +119,7 @@ void print_layer_profile(const std::vector<Variant>& variants, cv::Size size, in
   for (std::size_t k = 0; k < variants.size(); ++k) {
     std::printf("%s\n", variants[k].label.c_str());
     for (auto& [type, t] : ms[k])
-      if (median(t) >= 0.005) std::printf("  %-32s %8.2f\n", type.c_str(), median(t));
+      if (const double m = median(t); m >= 0.005) std::printf("  %-32s %8.2f\n", type.c_str(), m);
   }
   constexpr std::size_t kCostliest = 8;
   for (std::size_t k = 0; k < variants.size(); ++k) {
