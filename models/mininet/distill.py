@@ -229,12 +229,16 @@ def main():
     ap.add_argument("--work", required=True)
     ap.add_argument("--students", default="1.0,0.5", help="width multipliers, comma-separated")
     ap.add_argument("--init", default="", help="shipped 2-class MiniNet for the width-1.0 student")
+    ap.add_argument("--resume", default="",
+                    help="WIDTH=CHECKPOINT,...: students that start from an earlier run's weights")
     ap.add_argument("--mix", default="9,2,6,3", help="weights of " + ",".join(SOURCES))
     ap.add_argument("--steps", type=int, default=6000)
     ap.add_argument("--batch", type=int, default=48)
     ap.add_argument("--lr", type=float, default=2e-3)
     ap.add_argument("--validate-every", type=int, default=1000)
     ap.add_argument("--validate-at-start", action="store_true")
+    ap.add_argument("--save-every", type=int, default=0,
+                    help="also save each student_W_last.pt every N steps, unvalidated (0: never)")
     ap.add_argument("--max-minutes", type=float, default=0, help="0: no limit")
     ap.add_argument("--device", default="cuda" if torch.cuda.is_available() else "cpu")
     ap.add_argument("--seed", type=int, default=1)
@@ -252,11 +256,19 @@ def main():
     views = Views(args.pack, [float(v) for v in args.mix.split(",")], device, args.seed)
     sets = {"icdar_val": load_folder(os.path.join(args.pack, "icdar_val"), True),
             "generated_val": load_folder(os.path.join(args.pack, "generated_val"), True)}
+    resume = {float(w): path for w, path in
+              (item.split("=", 1) for item in args.resume.split(",") if item)}
     students, optimizers = {}, {}
     for width in [float(w) for w in args.students.split(",")]:
         net = MiniNet(1, width)
         lr = args.lr
-        if width == 1.0 and args.init:
+        if width in resume:
+            state = torch.load(resume[width], map_location="cpu")
+            if state.get("width") != width or state.get("classes") != 1:
+                raise SystemExit(f"distill.py: {resume[width]} is no width-{width} student")
+            net.load_state_dict(state["net"])
+            print(f"student w{width} resumes {resume[width]} (its step {state['step']})", flush=True)
+        elif width == 1.0 and args.init:
             text_logit_init(net, args.init)
             lr = args.lr / 2
             print(f"student w1.0 starts from {args.init}", flush=True)
@@ -320,6 +332,11 @@ def main():
         if step % 200 == 0:
             print(f"step {step} {time.time() - start:.0f} s "
                   + " ".join(f"w{w} {np.mean(l[-100:]):.4f}" for w, l in losses.items()), flush=True)
+        if args.save_every and step % args.save_every == 0:
+            for w, net in students.items():
+                torch.save({"net": net.state_dict(), "width": w, "step": step, "classes": 1,
+                            "validation": {}, "recipe": vars(args)},
+                           os.path.join(args.work, f"student_w{w}_last.pt"))
         out_of_time = progress >= 1 and step < args.steps
         if step % args.validate_every == 0 or out_of_time:
             checkpoint(step)

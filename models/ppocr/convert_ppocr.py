@@ -280,6 +280,41 @@ def fold_output_affines(model):
     return count
 
 
+def fuse_residual_excitation(model):
+    """PP-OCRv4's neck (its RSE layers) adds a convolution's output x to itself scaled by its
+    squeeze-and-excitation gate g (N x C x 1 x 1, a HardSigmoid): x + x * g.  x * (g + 1) is
+    the same to float rounding in one pass over the planes where OpenCV made two (the product,
+    then the sum as a full-size layer of its own, reading both); the + 1 is on the C gates."""
+    graph = model.graph
+    count = 0
+    for add in list(graph.node):
+        if add.op_type != "Add" or len(add.input) != 2:
+            continue
+        for x, scaled in (list(add.input), list(reversed(add.input))):
+            mul = producer(graph, scaled)
+            if mul is None or mul.op_type != "Mul" or x not in mul.input or len(mul.input) != 2:
+                continue
+            if len(consumers(graph, scaled)) != 1 or scaled in {o.name for o in graph.output}:
+                continue
+            gate = mul.input[1] if mul.input[0] == x else mul.input[0]
+            if gate == x or getattr(producer(graph, gate), "op_type", "") != "HardSigmoid":
+                continue
+            one = unique_name(graph, gate + "_one")
+            set_const(graph, one, np.ones(1, np.float32))
+            gate_plus_one = unique_name(graph, gate + "_plus_one")
+            at = list(graph.node).index(mul)
+            graph.node.remove(mul)
+            graph.node.insert(at, helper.make_node("Add", [gate, one], [gate_plus_one],
+                                                   name=gate_plus_one))
+            at = list(graph.node).index(add)
+            graph.node.remove(add)
+            graph.node.insert(at, helper.make_node("Mul", [x, gate_plus_one], [add.output[0]],
+                                                   name=add.output[0] + "_excited"))
+            count += 1
+            break
+    return count
+
+
 def convert_detector(src, dst, width, height, fuse=True):
     model = onnx.load(src)
     constants_to_initializers(model)
@@ -287,13 +322,14 @@ def convert_detector(src, dst, width, height, fuse=True):
     set_fixed_io_shape(model, [1, 3, height, width])
     n_affine = fold_output_affines(model) if fuse else 0
     n_hard_swish = fuse_hard_swish(model) if fuse else 0
+    n_excitation = fuse_residual_excitation(model) if fuse else 0
     remove_dead_nodes(model)
     # Opset 11 Clip with attributes is not valid ONNX any more (onnx.checker and
     # ONNX Runtime refuse it); only OpenCV reads this file.  To compare with ONNX
     # Runtime, run the ORIGINAL model there.
     onnx.save(model, dst)
     return {"clip_nodes_rewritten": n_clip, "affines_folded": n_affine,
-            "hard_swish_fused": n_hard_swish}
+            "hard_swish_fused": n_hard_swish, "residual_excitations_fused": n_excitation}
 
 
 def conv_flops(model):

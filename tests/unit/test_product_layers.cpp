@@ -4,8 +4,8 @@
 // float), the depthwise one, with and without bias and a fused chain of activations; in float,
 // and in bfloat16 where the CPU has it (then what OpenCV computes from the input and weights
 // rounded to bfloat16); the 1x1 one in int8 (the quantized product, near OpenCV's); Power, the
-// inner product and softmax; other geometries stay OpenCV's, and the shipped MiniNet gives the same
-// masks in a batch as one frame at a time.
+// inner product, softmax and global average pooling; other geometries stay OpenCV's, and the
+// shipped MiniNet gives the same masks in a batch as one frame at a time.
 #include <gtest/gtest.h>
 
 #include <opencv2/dnn/shape_utils.hpp>
@@ -659,6 +659,48 @@ TEST(SoftmaxStandIn, MatchesOpenCvsSoftmax) {
     ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
     EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), c.log ? 1e-4 : 1e-6)
         << "axis " << c.axis << (c.log ? ", log" : "");
+  }
+}
+
+// Global average pooling (the squeeze of PP-OCR's squeeze-and-excitation blocks) against OpenCV's:
+// planes of one pixel, fewer pixels than a vector, not a whole number of the four vectors summed
+// at a time, and the detector's 96 x 64 x 80; a batch of two. Other poolings stay OpenCV's.
+TEST(GlobalAveragePoolStandIn, MatchesOpenCvsPooling) {
+  const std::vector<std::vector<int>> shapes = {
+      {1, 3, 1, 1}, {1, 5, 2, 3}, {2, 7, 9, 13}, {1, 4, 16, 8}, {1, 96, 64, 80}};
+  cv::RNG rng(23);
+  for (const auto& shape : shapes) {
+    cv::Mat input(shape, CV_32F);
+    rng.fill(input, cv::RNG::UNIFORM, -4.0, 6.0);
+    cv::dnn::LayerParams params;
+    params.type = "Pooling";
+    params.set("pool", "AVE");
+    params.set("global_pooling", true);
+    std::string type;
+    const cv::Mat got = run_one_layer(params, input, DnnLayers::in_float(), &type);
+    const cv::Mat expected = run_one_layer(params, input, DnnLayers::opencv(), nullptr);
+    EXPECT_EQ(type, "KeyfleetGlobalAveragePool");
+    ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
+    // Means of values within [-4, 6], summed in another order than OpenCV's.
+    EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-5)
+        << shape[1] << " x " << shape[2] << " x " << shape[3];
+  }
+  cv::Mat input({1, 2, 6, 6}, CV_32F);
+  rng.fill(input, cv::RNG::UNIFORM, -1.0, 1.0);
+  for (const char* pool : {"MAX", "AVE"}) {
+    cv::dnn::LayerParams params;
+    params.type = "Pooling";
+    params.set("pool", pool);
+    const bool global = std::string(pool) == "MAX";  // global max; average over 2x2 windows
+    params.set("global_pooling", global);
+    const int kernel[] = {2, 2}, stride[] = {2, 2};
+    if (!global) {
+      params.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
+      params.set("stride", cv::dnn::DictValue::arrayInt(stride, 2));
+    }
+    std::string type;
+    run_one_layer(params, input, DnnLayers::in_float(), &type);
+    EXPECT_EQ(type, "Pooling") << pool;
   }
 }
 

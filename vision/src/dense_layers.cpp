@@ -244,7 +244,66 @@ class SoftmaxLayer final : public cv::dnn::Layer {
   bool log_;
 };
 
+// Global average pooling: each N x C plane's mean, summed in four vectors of lanes.
+class GlobalAveragePoolLayer final : public cv::dnn::Layer {
+ public:
+  explicit GlobalAveragePoolLayer(const cv::dnn::LayerParams& params) {
+    setParamsFrom(params);
+    type = "KeyfleetGlobalAveragePool";
+  }
+
+  static bool handles(const cv::dnn::LayerParams& params) {
+    return params.get<bool>("global_pooling", false) && !params.has("axes") &&
+           cv::toLowerCase(params.get<cv::String>("pool", "max")) == "ave";
+  }
+
+  bool getMemoryShapes(const std::vector<cv::dnn::MatShape>& inputs, int,
+                       std::vector<cv::dnn::MatShape>& outputs,
+                       std::vector<cv::dnn::MatShape>&) const override {
+    CV_Assert(inputs.size() == 1 && inputs[0].size() == 4);
+    outputs = {{inputs[0][0], inputs[0][1], 1, 1}};
+    return false;
+  }
+
+  void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
+               cv::OutputArrayOfArrays) override {
+    std::vector<cv::Mat> inputs, outputs;
+    inputs_arr.getMatVector(inputs);
+    outputs_arr.getMatVector(outputs);
+    const cv::Mat& in = inputs.at(0);
+    cv::Mat& out = outputs.at(0);
+    CV_Assert(in.type() == CV_32F && in.isContinuous() && out.isContinuous() && in.dims == 4);
+    const int planes = in.size[0] * in.size[1], n = in.size[2] * in.size[3];
+    if (n == 0) {
+      out.setTo(0);  // no pixels: what OpenCV's pooling gives an empty plane
+      return;
+    }
+    cv::parallel_for_(cv::Range(0, planes), [&](const cv::Range& range) {
+      constexpr int kLanes = cv::v_float32::nlanes;
+      for (int p = range.start; p < range.end; ++p) {
+        const float* x = in.ptr<float>() + std::size_t(p) * std::size_t(n);
+        cv::v_float32 s0 = cv::vx_setzero_f32(), s1 = s0, s2 = s0, s3 = s0;
+        int i = 0;
+        for (; i + 4 * kLanes <= n; i += 4 * kLanes) {
+          s0 += cv::vx_load(x + i);
+          s1 += cv::vx_load(x + i + kLanes);
+          s2 += cv::vx_load(x + i + 2 * kLanes);
+          s3 += cv::vx_load(x + i + 3 * kLanes);
+        }
+        float sum = cv::v_reduce_sum((s0 + s1) + (s2 + s3));
+        for (; i < n; ++i) sum += x[i];
+        out.ptr<float>()[p] = sum / float(n);
+      }
+    });
+  }
+};
+
 }  // namespace
+
+cv::Ptr<cv::dnn::Layer> create_pooling(cv::dnn::LayerParams& params) {
+  if (!GlobalAveragePoolLayer::handles(params)) return cv::dnn::PoolingLayer::create(params);
+  return cv::makePtr<GlobalAveragePoolLayer>(params);
+}
 
 cv::Ptr<cv::dnn::Layer> create_inner_product(cv::dnn::LayerParams& params) {
   if (!InnerProductLayer::handles(params)) return cv::dnn::InnerProductLayer::create(params);

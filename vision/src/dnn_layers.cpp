@@ -513,7 +513,8 @@ DnnLayersScope::DnnLayersScope(DnnLayers layers) : lock_(scope_mutex()) {
        {"Convolution", create_convolution}},
       {layers.subpixel_deconvolution, {"Deconvolution", create_deconvolution}},
       {layers.inner_product, {"InnerProduct", create_inner_product}},
-      {layers.vectorised_softmax, {"Softmax", create_softmax}}};
+      {layers.vectorised_softmax, {"Softmax", create_softmax}},
+      {layers.global_average_pool, {"Pooling", create_pooling}}};
   try {
     for (const auto& [use, layer] : chosen)
       if (use) {

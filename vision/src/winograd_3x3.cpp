@@ -20,14 +20,25 @@ constexpr int kBandValues = 4096;
 #ifdef KEYFLEET_WINOGRAD_X86
 using Vec = __m256;
 
-// Columns 4 b + j (j < 4) of the 32 floats at p, for the 8 blocks b, in the order of blocks
-// 0, 2, 4, 6 | 1, 3, 5, 7 (an in-lane 4x4 transpose: no lane crossing). Every plane holds its
-// blocks in that order; output_blocks undoes it the same way.
+// The 32 floats at p as four vectors, each lane of vector k holding 4 floats of one block: lane 0
+// of vector k block k's, lane 1 block k + 4's (columns 4 b .. 4 b + 3 are block b's).
+__attribute__((target("avx2,fma"))) inline void lanes_of_blocks(const float* p, Vec a[4]) {
+  const Vec lo = _mm256_loadu_ps(p), lo2 = _mm256_loadu_ps(p + 8);
+  const Vec hi = _mm256_loadu_ps(p + 16), hi2 = _mm256_loadu_ps(p + 24);
+  a[0] = _mm256_permute2f128_ps(lo, hi, 0x20);
+  a[1] = _mm256_permute2f128_ps(lo, hi, 0x31);
+  a[2] = _mm256_permute2f128_ps(lo2, hi2, 0x20);
+  a[3] = _mm256_permute2f128_ps(lo2, hi2, 0x31);
+}
+
+// Columns 4 b + j (j < 4) of the 32 floats at p, for the 8 blocks b in their order (an in-lane
+// 4x4 transpose of lanes_of_blocks). Every plane holds its blocks in that order, so 8 blocks
+// stored from any column agree with the 8 stored before them where the two overlap.
 __attribute__((target("avx2,fma"))) inline void columns_of_4(const float* p, Vec c[4]) {
-  const Vec a0 = _mm256_loadu_ps(p), a1 = _mm256_loadu_ps(p + 8);
-  const Vec a2 = _mm256_loadu_ps(p + 16), a3 = _mm256_loadu_ps(p + 24);
-  const Vec t0 = _mm256_unpacklo_ps(a0, a1), t1 = _mm256_unpackhi_ps(a0, a1);
-  const Vec t2 = _mm256_unpacklo_ps(a2, a3), t3 = _mm256_unpackhi_ps(a2, a3);
+  Vec a[4];
+  lanes_of_blocks(p, a);
+  const Vec t0 = _mm256_unpacklo_ps(a[0], a[1]), t1 = _mm256_unpackhi_ps(a[0], a[1]);
+  const Vec t2 = _mm256_unpacklo_ps(a[2], a[3]), t3 = _mm256_unpackhi_ps(a[2], a[3]);
   c[0] = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0));
   c[1] = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2));
   c[2] = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0));
@@ -36,9 +47,9 @@ __attribute__((target("avx2,fma"))) inline void columns_of_4(const float* p, Vec
 
 // Columns 4 b and 4 b + 1 only (the block's columns 4 and 5, read 4 further on).
 __attribute__((target("avx2,fma"))) inline void columns_of_2(const float* p, Vec c[2]) {
-  const Vec a0 = _mm256_loadu_ps(p), a1 = _mm256_loadu_ps(p + 8);
-  const Vec a2 = _mm256_loadu_ps(p + 16), a3 = _mm256_loadu_ps(p + 24);
-  const Vec t0 = _mm256_unpacklo_ps(a0, a1), t2 = _mm256_unpacklo_ps(a2, a3);
+  Vec a[4];
+  lanes_of_blocks(p, a);
+  const Vec t0 = _mm256_unpacklo_ps(a[0], a[1]), t2 = _mm256_unpacklo_ps(a[2], a[3]);
   c[0] = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0));
   c[1] = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2));
 }
@@ -94,7 +105,7 @@ __attribute__((target("avx2,fma"))) inline void output_1d(const Vec* m, Vec* out
   out[3] = _mm256_add_ps(_mm256_fmadd_ps(_mm256_set1_ps(8.f), s, q), m[5]);
 }
 
-// A^T m A of 8 blocks (m: 36 planes `plane` apart, blocks in columns_of_4's order) plus the
+// A^T m A of 8 blocks (m: 36 planes `plane` apart, blocks in their order) plus the
 // bias: y[r] holds output row r of the 8 blocks, 32 floats left to right.
 __attribute__((target("avx2,fma"))) void output_blocks(const float* m, std::size_t plane,
                                                        float bias, float y[4][32]) {
@@ -113,10 +124,15 @@ __attribute__((target("avx2,fma"))) void output_blocks(const float* m, std::size
     for (Vec& v : c) v = _mm256_add_ps(v, b);
     const Vec u0 = _mm256_unpacklo_ps(c[0], c[1]), u1 = _mm256_unpackhi_ps(c[0], c[1]);
     const Vec u2 = _mm256_unpacklo_ps(c[2], c[3]), u3 = _mm256_unpackhi_ps(c[2], c[3]);
-    _mm256_storeu_ps(y[r], _mm256_shuffle_ps(u0, u2, _MM_SHUFFLE(1, 0, 1, 0)));
-    _mm256_storeu_ps(y[r] + 8, _mm256_shuffle_ps(u0, u2, _MM_SHUFFLE(3, 2, 3, 2)));
-    _mm256_storeu_ps(y[r] + 16, _mm256_shuffle_ps(u1, u3, _MM_SHUFFLE(1, 0, 1, 0)));
-    _mm256_storeu_ps(y[r] + 24, _mm256_shuffle_ps(u1, u3, _MM_SHUFFLE(3, 2, 3, 2)));
+    // Block k's 4 columns in lane 0 of b[k], block k + 4's in lane 1.
+    const Vec b[4] = {_mm256_shuffle_ps(u0, u2, _MM_SHUFFLE(1, 0, 1, 0)),
+                      _mm256_shuffle_ps(u0, u2, _MM_SHUFFLE(3, 2, 3, 2)),
+                      _mm256_shuffle_ps(u1, u3, _MM_SHUFFLE(1, 0, 1, 0)),
+                      _mm256_shuffle_ps(u1, u3, _MM_SHUFFLE(3, 2, 3, 2))};
+    _mm256_storeu_ps(y[r], _mm256_permute2f128_ps(b[0], b[1], 0x20));
+    _mm256_storeu_ps(y[r] + 8, _mm256_permute2f128_ps(b[2], b[3], 0x20));
+    _mm256_storeu_ps(y[r] + 16, _mm256_permute2f128_ps(b[0], b[1], 0x31));
+    _mm256_storeu_ps(y[r] + 24, _mm256_permute2f128_ps(b[2], b[3], 0x31));
   }
 }
 #endif
@@ -174,11 +190,13 @@ void Winograd3x3::transform_input(const float* src, int h, int w, int ty0, int t
       copy_with_zero_border(src + std::size_t(c) * h * w, h, w, 1 - 4 * ty0, 1, rows, width,
                             bordered.data());
       for (int ty = ty0; ty < ty1; ++ty)
-        for (int tx = 0; tx < blocks_across_; tx += 8)
+        for (int group = 0; group < blocks_across_; group += 8) {
+          const int tx = group_start(group);
           input_blocks(
               bordered.data() + std::size_t(4 * (ty - ty0)) * width + 4 * tx, width,
               v_.data() + std::size_t(c) * columns_ + std::size_t(ty - ty0) * blocks_across_ + tx,
               plane);
+        }
     }
   });
 #else
@@ -219,7 +237,8 @@ void Winograd3x3::transform_output(int ty0, int ty1, int h, int w, float* dst,
     for (int co = channels.start; co < channels.end; ++co) {
       float* out = dst + co * out_plane;
       for (int ty = ty0; ty < ty1; ++ty)
-        for (int tx = 0; tx < blocks_across_ && 4 * tx < w; tx += 8) {
+        for (int group = 0; group < blocks_across_ && 4 * group < w; group += 8) {
+          const int tx = group_start(group);
           output_blocks(
               m_.data() + std::size_t(co) * columns_ + std::size_t(ty - ty0) * blocks_across_ + tx,
               plane, bias_[std::size_t(co)], y);
@@ -243,7 +262,9 @@ void Winograd3x3::transform_output(int ty0, int ty1, int h, int w, float* dst,
 void Winograd3x3::run(const float* src, int h, int w, float* dst,
                       const cv::dnn::ActivationLayer* activation) {
   const int blocks_down = (h + 3) / 4;
-  blocks_across_ = ((w + 3) / 4 + 7) / 8 * 8;
+  // The blocks of a row side by side, none padded in (PP-OCR's 80 columns: 20 blocks, not 24;
+  // its 40: 10, not 16), at least the 8 the transforms take at a time.
+  blocks_across_ = std::max(8, (w + 3) / 4);
   const int band = std::clamp(kBandValues / (cin_ * blocks_across_), 1, blocks_down);
   const ProductBlock block = float_product_block(cout_, band * blocks_across_);
   if (block.rows != block_.rows || block.columns != block_.columns) pack(block);

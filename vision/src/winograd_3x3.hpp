@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/dnn/all_layers.hpp>
 
+#include <algorithm>
 #include <vector>
 
 #include "avx2_product.hpp"
@@ -42,7 +43,10 @@ class Winograd3x3 {
   ProductBlock block_{0, 0};
   int row_blocks_ = 0;
   PackedWeights packed_;
-  // Per run: the blocks along a row (a multiple of 8); per band: its transform
+  // The first of the 8 blocks the transforms take from `group` (a multiple of 8) on: where a row
+  // holds no whole number of 8, its last 8 overlap the 8 before (computed twice, stored alike).
+  int group_start(int group) const { return std::min(group, blocks_across_ - 8); }
+  // Per run: the blocks along a row (8 or more); per band: its transform
   // [36][cin][columns_], the products [36][outputs][columns_].
   int blocks_across_ = 0, columns_ = 0;
   std::size_t v_plane_ = 0, m_plane_ = 0;  // between the 36 planes of v_ and of m_
