@@ -45,6 +45,47 @@ __attribute__((target("avx2,fma"))) inline void vectors(const std::vector<Tap>& 
   _mm256_maskstore_ps(out + 8 * (kVectors - 1), mask, sum[kVectors - 1]);
 }
 
+// The even and odd columns of the n floats at src into even[0, (n + 1) / 2) and odd[0, n / 2).
+__attribute__((target("avx2,fma"))) void split_columns(const float* src, int n, float* even,
+                                                       float* odd) {
+  int j = 0;
+  for (; 2 * j + 16 <= n; j += 8) {
+    const __m256 a = _mm256_loadu_ps(src + 2 * j), b = _mm256_loadu_ps(src + 2 * j + 8);
+    // Per lane (a0 a2 b0 b2 | a4 a6 b4 b6), then the middle pairs swapped across lanes.
+    const __m256 e = _mm256_shuffle_ps(a, b, _MM_SHUFFLE(2, 0, 2, 0));
+    const __m256 o = _mm256_shuffle_ps(a, b, _MM_SHUFFLE(3, 1, 3, 1));
+    _mm256_storeu_ps(even + j, _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(e), 0xD8)));
+    _mm256_storeu_ps(odd + j, _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(o), 0xD8)));
+  }
+  for (; 2 * j < n; ++j) {
+    even[j] = src[2 * j];
+    if (2 * j + 1 < n) odd[j] = src[2 * j + 1];
+  }
+}
+
+// The plane with a zero border (pt rows above, pl columns left) as two planes of `row` floats a
+// row, its even columns then its odd ones, in one pass from src.
+__attribute__((target("avx2,fma"))) void bordered_phases(const float* src, int h, int w, int pt,
+                                                         int pl, int height, int row, float* out) {
+  float* even = out;
+  float* odd = out + std::size_t(height) * row;
+  // Source column c lands at bordered column c + pl, which is column (c + pl) / 2 of the even
+  // plane where c + pl is even, else of the odd one.
+  for (int r = 0; r < height; ++r) {
+    float* e = even + std::size_t(r) * row;
+    float* o = odd + std::size_t(r) * row;
+    std::fill(e, e + row, 0.f);
+    std::fill(o, o + row, 0.f);
+    const int y = r - pt;
+    if (y < 0 || y >= h) continue;
+    const float* s = src + std::size_t(y) * w;
+    if (pl % 2 == 0)
+      split_columns(s, w, e + pl / 2, o + pl / 2);
+    else  // src's even columns fall on odd bordered ones
+      split_columns(s, w, o + pl / 2, e + (pl + 1) / 2);
+  }
+}
+
 #endif
 
 }  // namespace
@@ -63,27 +104,41 @@ bool depthwise_avx2_supported() {
 __attribute__((target("avx2,fma")))
 #endif
 void depthwise_plane_avx2(const float* src, int h, int w, const float* kernel, int kh, int kw,
-                          int dh, int dw, int pt, int pl, int sh, float bias, float* dst, int ho,
-                          int wo) {
+                          int dh, int dw, int pt, int pl, int sh, int sw, float bias, float* dst,
+                          int ho, int wo) {
 #ifdef KEYFLEET_DEPTHWISE_X86
-  // Output (y, x) reads bordered (y sh + ky dh, x + kx dw): rows up to (ho - 1) sh + (kh - 1) dh,
-  // columns
-  // up to the last vector's end plus (kw - 1) dw; the input needs at least h + pt rows and
-  // w + pl columns of it.
+  // Output (y, x) reads bordered (y sh + ky dh, x sw + kx dw): rows up to (ho - 1) sh + (kh - 1)
+  // dh, columns up to the last vector's end times sw plus (kw - 1) dw; the input needs at least
+  // h + pt rows and w + pl columns of it.
   const int vector_columns = (wo + 7) / 8 * 8;
-  const int width = std::max(vector_columns + (kw - 1) * dw, w + pl);
   const int height = std::max((ho - 1) * sh + (kh - 1) * dh + 1, h + pt);
   thread_local std::vector<float> bordered;
-  bordered.resize(std::size_t(height) * width);
-  copy_with_zero_border(src, h, w, pt, pl, height, width, bordered.data());
+  int row = 0;  // floats between rows of `plane`
+  if (sw == 1) {
+    row = std::max(vector_columns + (kw - 1) * dw, w + pl);
+    bordered.resize(std::size_t(height) * row);
+    copy_with_zero_border(src, h, w, pt, pl, height, row, bordered.data());
+  } else {
+    // With stride 2 along rows the even and odd columns of the bordered plane are two planes of
+    // half its width, so that each tap reads consecutive columns of one of them (tap column kx
+    // dw: the even plane's from kx dw / 2 on, or the odd plane's).
+    row = std::max(vector_columns + ((kw - 1) * dw + 1) / 2, (w + pl) / 2 + 1) + 1;
+    bordered.resize(2 * std::size_t(height) * row);
+    bordered_phases(src, h, w, pt, pl, height, row, bordered.data());
+  }
+  const float* plane = bordered.data();
+  const std::size_t odd_plane = std::size_t(height) * row;
   std::vector<Tap> taps;
   taps.reserve(std::size_t(kh) * kw);
   for (int ky = 0; ky < kh; ++ky)
-    for (int kx = 0; kx < kw; ++kx)
-      if (kernel[ky * kw + kx] != 0.f)
-        taps.push_back({ky * dh * width + kx * dw, kernel[ky * kw + kx]});
+    for (int kx = 0; kx < kw; ++kx) {
+      if (kernel[ky * kw + kx] == 0.f) continue;
+      const int column = kx * dw;
+      const int offset = sw == 2 ? int((column % 2) * odd_plane) + column / 2 : column;
+      taps.push_back({ky * dh * row + offset, kernel[ky * kw + kx]});
+    }
   for (int y = 0; y < ho; ++y) {
-    const float* in = bordered.data() + std::size_t(y) * sh * width;
+    const float* in = plane + std::size_t(y) * sh * row;
     float* out = dst + std::size_t(y) * wo;
     int x = 0;
     for (; x + 32 <= wo; x += 32) vectors<4>(taps, in + x, bias, out + x, 8);
@@ -91,7 +146,7 @@ void depthwise_plane_avx2(const float* src, int h, int w, const float* kernel, i
   }
 #else
   (void)src, (void)h, (void)w, (void)kernel, (void)kh, (void)kw, (void)dh, (void)dw, (void)pt;
-  (void)pl, (void)sh, (void)bias, (void)dst, (void)ho, (void)wo;
+  (void)pl, (void)sh, (void)sw, (void)bias, (void)dst, (void)ho, (void)wo;
 #endif
 }
 

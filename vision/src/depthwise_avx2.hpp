@@ -1,5 +1,5 @@
 #pragma once
-// One plane of a stride-1 depthwise convolution with AVX2 and FMA (x86-64); internal to
+// One plane of a depthwise convolution with AVX2 and FMA (x86-64); internal to
 // keyfleet_vision (dnn_layers.cpp's depthwise stand-in). Each output vector sums all its taps in
 // registers and is stored once: the plane-at-a-time way (a pass over the output per tap) reads and
 // writes the output plane kh x kw times, which costs more than the multiplications on PP-OCR's
@@ -11,11 +11,12 @@ namespace keyfleet::vision {
 bool depthwise_avx2_supported();
 
 // dst (ho x wo) = bias + sum over taps (ky, kx) of kernel[ky * kw + kx] times src (h x w) at
-// (y sh - pt + ky dh, x - pl + kx dw), zero outside src (sh: the stride down columns; along rows
-// it is 1). Taps of weight 0 are skipped; the taps are summed in the order ky, kx (as the portable
-// code does), over a copy of the plane with a zero border. Requires depthwise_avx2_supported().
+// (y sh - pt + ky dh, x sw - pl + kx dw), zero outside src (sh: the stride down columns, sw along
+// rows: 1 or 2). Taps of weight 0 are skipped; the taps are summed in the order ky, kx (as the
+// portable code does), over a copy of the plane with a zero border (with sw 2, its even and odd
+// columns apart). Requires depthwise_avx2_supported().
 void depthwise_plane_avx2(const float* src, int h, int w, const float* kernel, int kh, int kw,
-                          int dh, int dw, int pt, int pl, int sh, float bias, float* dst, int ho,
-                          int wo);
+                          int dh, int dw, int pt, int pl, int sh, int sw, float bias, float* dst,
+                          int ho, int wo);
 
 }  // namespace keyfleet::vision
