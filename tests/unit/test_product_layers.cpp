@@ -1,11 +1,11 @@
 // keyfleet's stand-in layers (dnn_layers.hpp) compute what OpenCV's layers do: the sub-pixel
 // transposed convolution for the geometries it takes over (3x3, stride 2, padding 1, output
 // padding 1; 2x2, stride 2, no padding), the 1x1 convolution, the dense 3x3 one (Winograd's in
-// float), the depthwise one, with and without bias and a fused chain of activations; in float,
-// and in bfloat16 where the CPU has it (then what OpenCV computes from the input and weights
-// rounded to bfloat16); the 1x1 one in int8 (the quantized product, near OpenCV's); Power, the
-// inner product, softmax and global average pooling; other geometries stay OpenCV's, and the
-// shipped MiniNet gives the same masks in a batch as one frame at a time.
+// float), the stride-2 first layer, the depthwise one, with and without bias and a fused chain of
+// activations; in float, and in bfloat16 where the CPU has it (then what OpenCV computes from the
+// input and weights rounded to bfloat16); the 1x1 one in int8 (the quantized product, near
+// OpenCV's); Power, the inner product, softmax and global average pooling; other geometries stay
+// OpenCV's, and the shipped MiniNet gives the same masks in a batch as one frame at a time.
 #include <gtest/gtest.h>
 
 #include <opencv2/dnn/shape_utils.hpp>
@@ -376,11 +376,52 @@ TEST(Convolution3x3StandIn, MatchesOpenCvsConvolution) {
       EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * 9 * s.cin * 2 + 1e-6)
           << s.cin << " -> " << s.cout << ", " << s.w << "x" << s.h << ", " << type;
     }
-  // Stride 2 stays OpenCV's.
-  RandomLayer l(rng, {4, 6, 8, 8, false, false}, {6, 4, 3, 3});
+  // Stride 2 stays OpenCV's beyond 4 inputs (below: the strided stand-in).
+  RandomLayer l(rng, {5, 6, 8, 8, false, false}, {6, 5, 3, 3});
   std::string type;
   convolve_3x3(l.input, l.weights, l.bias, false, stand_ins(false), 2, &type);
   EXPECT_EQ(type, "Convolution");
+}
+
+// The stride-2 stand-in for a network's first layer (k x k, padding k / 2, up to 4 inputs) against
+// OpenCV's convolution: PP-OCR's 3 -> 16 3x3 (at a size whose output rows take several bands, and
+// a batch of two), a 5x5, one input, odd and even sides, a plane of one pixel, outputs in whole and
+// partial row blocks, with and without bias and a SELU after it.
+TEST(StridedConvolutionStandIn, MatchesOpenCvsConvolution) {
+  if (!matrix_product_layers_supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layer stays";
+  struct Case {
+    Shape shape;
+    int kernel;
+  };
+  const std::vector<Case> cases = {
+      {{3, 16, 256, 320, true, true}, 3}, {{3, 16, 7, 9, false, false}, 3},
+      {{1, 5, 8, 6, true, false}, 3},     {{4, 24, 1, 1, true, true}, 3},
+      {{3, 8, 11, 13, false, true}, 5},   {{2, 30, 2, 3, true, false}, 5}};
+  cv::RNG rng(29);
+  for (const Case& c : cases) {
+    const Shape& s = c.shape;
+    RandomLayer l(rng, s, {s.cout, s.cin, c.kernel, c.kernel});
+    const auto run = [&](DnnLayers layers, std::string* type) {
+      cv::dnn::LayerParams params;
+      params.type = "Convolution";
+      params.set("num_output", s.cout);
+      const int kernel[] = {c.kernel, c.kernel}, strides[] = {2, 2},
+                pads[] = {c.kernel / 2, c.kernel / 2, c.kernel / 2, c.kernel / 2};
+      params.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
+      params.set("stride", cv::dnn::DictValue::arrayInt(strides, 2));
+      params.set("pad", cv::dnn::DictValue::arrayInt(pads, 4));
+      return run_layer(params, l.input, l.weights, l.bias, s.selu, layers, type);
+    };
+    std::string type;
+    const cv::Mat got = run(stand_ins(false), &type);
+    const cv::Mat expected = run(DnnLayers::opencv(), nullptr);
+    EXPECT_EQ(type, "KeyfleetStridedConvolution");
+    ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
+    // Sums of up to k x k x cin products of magnitude <= 2, in another order than OpenCV's.
+    EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * 25 * s.cin * 2 + 1e-6)
+        << s.cin << " -> " << s.cout << ", " << c.kernel << "x" << c.kernel << ", " << s.w << "x"
+        << s.h;
+  }
 }
 
 // The depthwise stand-in against OpenCV's convolution: PP-OCR's 3x3 and 5x5 kernels (stride 2 down
@@ -562,9 +603,9 @@ TEST(PowerStandIn, ComputesWhatOpenCvsPowerLayerDoes) {
     EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-5)
         << "power " << power << ", scale " << scale << ", shift " << shift;
   }
-  // After a convolution that stays OpenCV's (stride 2), which folds a Power layer's scale and
-  // shift into its weights: the stand-in, a PowerLayer too, is folded the same way.
-  RandomLayer l(rng, {4, 6, 8, 8, true, false}, {6, 4, 3, 3});
+  // After a convolution that stays OpenCV's (stride 2, 5 inputs), which folds a Power layer's
+  // scale and shift into its weights: the stand-in, a PowerLayer too, is folded the same way.
+  RandomLayer l(rng, {5, 6, 8, 8, true, false}, {6, 5, 3, 3});
   const auto folded = [&](DnnLayers layers, std::string* type) {
     cv::dnn::LayerParams conv;
     conv.name = "conv";

@@ -45,24 +45,6 @@ __attribute__((target("avx2,fma"))) inline void vectors(const std::vector<Tap>& 
   _mm256_maskstore_ps(out + 8 * (kVectors - 1), mask, sum[kVectors - 1]);
 }
 
-// The even and odd columns of the n floats at src into even[0, (n + 1) / 2) and odd[0, n / 2).
-__attribute__((target("avx2,fma"))) void split_columns(const float* src, int n, float* even,
-                                                       float* odd) {
-  int j = 0;
-  for (; 2 * j + 16 <= n; j += 8) {
-    const __m256 a = _mm256_loadu_ps(src + 2 * j), b = _mm256_loadu_ps(src + 2 * j + 8);
-    // Per lane (a0 a2 b0 b2 | a4 a6 b4 b6), then the middle pairs swapped across lanes.
-    const __m256 e = _mm256_shuffle_ps(a, b, _MM_SHUFFLE(2, 0, 2, 0));
-    const __m256 o = _mm256_shuffle_ps(a, b, _MM_SHUFFLE(3, 1, 3, 1));
-    _mm256_storeu_ps(even + j, _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(e), 0xD8)));
-    _mm256_storeu_ps(odd + j, _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(o), 0xD8)));
-  }
-  for (; 2 * j < n; ++j) {
-    even[j] = src[2 * j];
-    if (2 * j + 1 < n) odd[j] = src[2 * j + 1];
-  }
-}
-
 // The plane with a zero border (pt rows above, pl columns left) as two planes of `row` floats a
 // row, its even columns then its odd ones, in one pass from src.
 __attribute__((target("avx2,fma"))) void bordered_phases(const float* src, int h, int w, int pt,
@@ -80,9 +62,9 @@ __attribute__((target("avx2,fma"))) void bordered_phases(const float* src, int h
     if (y < 0 || y >= h) continue;
     const float* s = src + std::size_t(y) * w;
     if (pl % 2 == 0)
-      split_columns(s, w, e + pl / 2, o + pl / 2);
+      split_even_odd_columns(s, w, e + pl / 2, o + pl / 2);
     else  // src's even columns fall on odd bordered ones
-      split_columns(s, w, o + pl / 2, e + (pl + 1) / 2);
+      split_even_odd_columns(s, w, o + pl / 2, e + (pl + 1) / 2);
   }
 }
 
@@ -99,6 +81,26 @@ bool depthwise_avx2_supported() {
   return false;
 #endif
 }
+
+#ifdef KEYFLEET_DEPTHWISE_X86
+__attribute__((target("avx2,fma"))) void split_even_odd_columns(const float* src, int n,
+                                                                float* even, float* odd) {
+  int j = 0;
+  for (; 2 * j + 16 <= n; j += 8) {
+    const __m256 a = _mm256_loadu_ps(src + 2 * j), b = _mm256_loadu_ps(src + 2 * j + 8);
+    // Per lane (a0 a2 b0 b2 | a4 a6 b4 b6), then the middle pairs swapped across lanes.
+    const __m256 e = _mm256_shuffle_ps(a, b, _MM_SHUFFLE(2, 0, 2, 0));
+    const __m256 o = _mm256_shuffle_ps(a, b, _MM_SHUFFLE(3, 1, 3, 1));
+    _mm256_storeu_ps(even + j, _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(e), 0xD8)));
+    _mm256_storeu_ps(odd + j, _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(o), 0xD8)));
+  }
+  for (; 2 * j < n; ++j) {
+    even[j] = src[2 * j];
+    if (2 * j + 1 < n) odd[j] = src[2 * j + 1];
+  }
+}
+
+#endif
 
 #ifdef KEYFLEET_DEPTHWISE_X86
 __attribute__((target("avx2,fma")))

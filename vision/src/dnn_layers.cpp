@@ -18,6 +18,7 @@
 #include "pointwise_convolution.hpp"
 #include "pointwise_int8.hpp"
 #include "selu_avx2.hpp"
+#include "strided_convolution.hpp"
 #include "subpixel_deconvolution.hpp"
 
 namespace keyfleet::vision {
@@ -438,6 +439,61 @@ class Convolution3x3Layer final : public SameSizeLayer<Convolution3x3> {
   }
 };
 
+// Dense k x k convolution (k odd, padding k / 2 on every side), stride 2, one group, at most 4
+// input channels: a network's first layer (strided_convolution.hpp); an activation after it is
+// applied as each stripe of columns is done.
+class StridedConvolutionLayer final : public cv::dnn::Layer {
+ public:
+  explicit StridedConvolutionLayer(const cv::dnn::LayerParams& params)
+      : kernel_(params.blobs[0], params.blobs.size() > 1 ? params.blobs[1] : cv::Mat(),
+                params.blobs[0].size[2] / 2) {
+    setParamsFrom(params);
+    type = "KeyfleetStridedConvolution";
+  }
+
+  static bool handles(const cv::dnn::LayerParams& params,
+                      const cv::dnn::BaseConvolutionLayer& geometry) {
+    if (!product_supported() || params.blobs.empty() || params.blobs[0].dims != 4 ||
+        params.blobs[0].type() != CV_32F)
+      return false;
+    const cv::Mat& w = params.blobs[0];
+    const int k = w.size[2];
+    return k % 2 == 1 && w.size[3] == k && w.size[1] <= kMostInputs &&
+           both_are(geometry.kernel_size, std::size_t(k)) && both_are(geometry.strides, 2) &&
+           both_are(geometry.dilations, 1) && both_are(geometry.pads_begin, std::size_t(k / 2)) &&
+           both_are(geometry.pads_end, std::size_t(k / 2)) && geometry.padMode.empty() &&
+           params.get<int>("group", 1) == 1 && geometry.numOutput == w.size[0] &&
+           (params.blobs.size() < 2 || int(params.blobs[1].total()) == w.size[0]);
+  }
+  static constexpr int kMostInputs = 4;  // colour planes, not a network's inner layers
+
+  bool getMemoryShapes(const std::vector<cv::dnn::MatShape>& inputs, int,
+                       std::vector<cv::dnn::MatShape>& outputs,
+                       std::vector<cv::dnn::MatShape>&) const override {
+    const cv::dnn::MatShape& in = inputs.at(0);
+    CV_Assert(in.size() == 4 && in[1] == kernel_.input_channels());
+    outputs = {
+        {in[0], kernel_.output_channels(), kernel_.output_side(in[2]), kernel_.output_side(in[3])}};
+    return false;
+  }
+
+  bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
+    return activations_.add(layer);
+  }
+
+  void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
+               cv::OutputArrayOfArrays) override {
+    LayerIo io = float_layer_io(inputs_arr, outputs_arr, false);
+    for (int n = 0; n < io.in.size[0]; ++n)
+      kernel_.run(io.in.ptr<float>(n), io.in.size[2], io.in.size[3], io.out.ptr<float>(n),
+                  activations_.get());
+  }
+
+ private:
+  StridedConvolution kernel_;
+  ActivationChain activations_;
+};
+
 // The scope's stand-in for a convolution of that geometry, else OpenCV's.
 cv::Ptr<cv::dnn::Layer> create_convolution(cv::dnn::LayerParams& params) {
   const DnnLayers& chosen = scope_layers();
@@ -450,6 +506,8 @@ cv::Ptr<cv::dnn::Layer> create_convolution(cv::dnn::LayerParams& params) {
                : cv::Ptr<cv::dnn::Layer>(cv::makePtr<PointwiseLayer>(params));
   if (chosen.dense_3x3 && Convolution3x3Layer::handles(params, *opencv))
     return cv::makePtr<Convolution3x3Layer>(params);
+  if (chosen.dense_3x3 && StridedConvolutionLayer::handles(params, *opencv))
+    return cv::makePtr<StridedConvolutionLayer>(params);
   return opencv;
 }
 
