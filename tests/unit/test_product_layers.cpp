@@ -4,8 +4,9 @@
 // float), the stride-2 first layer, the depthwise one, with and without bias and a fused chain of
 // activations; in float, and in bfloat16 where the CPU has it (then what OpenCV computes from the
 // input and weights rounded to bfloat16); the 1x1 one in int8 (the quantized product, near
-// OpenCV's); Power, the inner product, softmax and global average pooling; other geometries stay
-// OpenCV's, and the shipped MiniNet gives the same masks in a batch as one frame at a time.
+// OpenCV's); Power, Sigmoid, the inner product, softmax and global average pooling; other
+// geometries stay OpenCV's, and the shipped MiniNet gives the same masks in a batch as one frame
+// at a time.
 #include <gtest/gtest.h>
 
 #include <opencv2/dnn/shape_utils.hpp>
@@ -152,7 +153,9 @@ TEST(SubpixelDeconvolution, MatchesOpenCvsTransposedConvolution) {
       {288, 96, 4, 8, false, false},
       {56, 36, 3, 70, true, true},
       // the 2x2 geometry works in bands of rows: 8 rows of 40 at 96 outputs, a partial one last
-      {24, 96, 20, 40, true, true}};
+      {24, 96, 20, 40, true, true},
+      {24, 1, 20, 40, true, true},  // PP-OCR's last layer: 2x2 with one output, its own path
+      {24, 2, 3, 33, false, true}};
   cv::RNG rng(11);
   // MiniNet's 3x3 (padding 1, output padding 1) and PP-OCR's DB head's 2x2 (no padding).
   for (const Geometry g : {Geometry{3, 2, 1, 1}, Geometry{2, 2, 0, 0}})
@@ -578,6 +581,29 @@ TEST(HardSwishStandIn, ComputesTheDefinition) {
   }
   hard_swish_vectorised(x.data(), x.data(), int(x.size()));
   EXPECT_EQ(x, y);
+}
+
+// The Sigmoid stand-in against OpenCV's own layer: values across the logistic curve and far out
+// on both sides (saturating to 0 and 1, no NaN), a length that is no multiple of the chunk or the
+// SIMD width.
+TEST(SigmoidStandIn, MatchesOpenCvsSigmoid) {
+  cv::Mat input({1, 3, 17, 23}, CV_32F);
+  cv::RNG rng(31);
+  rng.fill(input, cv::RNG::UNIFORM, -12.0, 12.0);
+  float* v = input.ptr<float>();
+  v[0] = -1e30f, v[1] = 1e30f, v[2] = 0.f, v[3] = -88.f, v[4] = 90.f;
+  cv::dnn::LayerParams params;
+  params.type = "Sigmoid";
+  std::string opencv_class, stand_in_class;
+  const cv::Mat expected =
+      run_one_layer(params, input, DnnLayers::opencv(), nullptr, nullptr, &opencv_class);
+  const cv::Mat got =
+      run_one_layer(params, input, DnnLayers::in_float(), nullptr, nullptr, &stand_in_class);
+  EXPECT_NE(stand_in_class, opencv_class) << "the stand-in did not run";
+  EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6);
+  EXPECT_EQ(got.ptr<float>()[0], 0.f);
+  EXPECT_EQ(got.ptr<float>()[1], 1.f);
+  EXPECT_FLOAT_EQ(got.ptr<float>()[2], 0.5f);
 }
 
 // The Power stand-in, (shift + scale x)^power, against OpenCV's own layer: the SIMD path (power 1)

@@ -61,6 +61,10 @@ class SubpixelDeconvolution : public ProductKernel {
                   const std::function<const float*(int, int, int)>& phase_row);
 
   int kernel_;  // 3 or 2
+  // 2x2 with at most this many outputs (PP-OCR's last layer, 24 -> 1): each output's four phases
+  // summed in registers straight from the input, where the 1x1 product would pad its 4 x outputs
+  // rows to a whole block and copy the input's bands.
+  static constexpr int kNarrowOutputs = 2;
   // 2x2: the four phases as one 1x1 convolution of 4 x output channels, phase-major.
   std::unique_ptr<PointwiseConvolution> phases_2x2_;
 

@@ -52,22 +52,23 @@ struct DnnLayers {
   bool inner_product = true;
   bool vectorised_softmax = true;
   bool global_average_pool = true;  // each plane's mean in SIMD (squeeze-and-excitation blocks)
+  bool vectorised_sigmoid = true;   // the logistic function with OpenCV's vectorised exp
   // The 1x1 convolutions with 64 or more input and output channels in 8-bit integers
   // (pointwise_int8.hpp: weights per output channel, the input over its own range on every
   // call): about 1.8x the multiply-adds per cycle of float on AVX2; outputs move by about 1 % of
   // their spread. Off unless asked for.
   bool int8_pointwise = false;
   static DnnLayers opencv() {
-    return {false, false, false, false, false, false, false, false, false, false, false};
+    return {false, false, false, false, false, false, false, false, false, false, false, false};
   }
   // All stand-ins in float: OpenCV's outputs to float rounding, on any CPU.
   static DnnLayers in_float() {
-    return {true, true, true, true, false, true, true, true, true, true, true};
+    return {true, true, true, true, false, true, true, true, true, true, true, true};
   }
   bool any() const {
     return vectorised_selu || depthwise || subpixel_deconvolution || pointwise || dense_3x3 ||
            vectorised_hard_swish || vectorised_power || inner_product || vectorised_softmax ||
-           global_average_pool;
+           global_average_pool || vectorised_sigmoid;
   }
 };
 
