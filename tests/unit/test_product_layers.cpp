@@ -583,6 +583,19 @@ TEST(HardSwishStandIn, ComputesTheDefinition) {
   EXPECT_EQ(x, y);
 }
 
+// The one layer `params` through keyfleet's stand-in (all in float) and through OpenCV's own:
+// {the stand-in's output, OpenCV's}; fails the test where no stand-in ran.
+std::pair<cv::Mat, cv::Mat> stand_in_beside_opencv(const cv::dnn::LayerParams& params,
+                                                   const cv::Mat& input) {
+  std::string opencv_class, stand_in_class;
+  cv::Mat expected =
+      run_one_layer(params, input, DnnLayers::opencv(), nullptr, nullptr, &opencv_class);
+  cv::Mat got =
+      run_one_layer(params, input, DnnLayers::in_float(), nullptr, nullptr, &stand_in_class);
+  EXPECT_NE(stand_in_class, opencv_class) << "the stand-in did not run";
+  return {got, expected};
+}
+
 // The Sigmoid stand-in against OpenCV's own layer: values across the logistic curve and far out
 // on both sides (saturating to 0 and 1, no NaN), a length that is no multiple of the chunk or the
 // SIMD width.
@@ -594,12 +607,7 @@ TEST(SigmoidStandIn, MatchesOpenCvsSigmoid) {
   v[0] = -1e30f, v[1] = 1e30f, v[2] = 0.f, v[3] = -88.f, v[4] = 90.f;
   cv::dnn::LayerParams params;
   params.type = "Sigmoid";
-  std::string opencv_class, stand_in_class;
-  const cv::Mat expected =
-      run_one_layer(params, input, DnnLayers::opencv(), nullptr, nullptr, &opencv_class);
-  const cv::Mat got =
-      run_one_layer(params, input, DnnLayers::in_float(), nullptr, nullptr, &stand_in_class);
-  EXPECT_NE(stand_in_class, opencv_class) << "the stand-in did not run";
+  const auto [got, expected] = stand_in_beside_opencv(params, input);
   EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6);
   EXPECT_EQ(got.ptr<float>()[0], 0.f);
   EXPECT_EQ(got.ptr<float>()[1], 1.f);
@@ -620,12 +628,7 @@ TEST(PowerStandIn, ComputesWhatOpenCvsPowerLayerDoes) {
     params.set("power", power);
     params.set("scale", scale);
     params.set("shift", shift);
-    std::string opencv_class, stand_in_class;
-    const cv::Mat expected =
-        run_one_layer(params, input, DnnLayers::opencv(), nullptr, nullptr, &opencv_class);
-    const cv::Mat got =
-        run_one_layer(params, input, DnnLayers::in_float(), nullptr, nullptr, &stand_in_class);
-    EXPECT_NE(stand_in_class, opencv_class) << "the stand-in did not run";
+    const auto [got, expected] = stand_in_beside_opencv(params, input);
     EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-5)
         << "power " << power << ", scale " << scale << ", shift " << shift;
   }
