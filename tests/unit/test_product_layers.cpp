@@ -741,10 +741,11 @@ TEST(SoftmaxStandIn, MatchesOpenCvsSoftmax) {
 
 // Global average pooling (the squeeze of PP-OCR's squeeze-and-excitation blocks) against OpenCV's:
 // planes of one pixel, fewer pixels than a vector, not a whole number of the four vectors summed
-// at a time, and the detector's 96 x 64 x 80; a batch of two. Other poolings stay OpenCV's.
+// at a time, and the detector's 96 x 64 x 80; a batch of two; one-dimensional planes. Other
+// poolings stay OpenCV's.
 TEST(GlobalAveragePoolStandIn, MatchesOpenCvsPooling) {
-  const std::vector<std::vector<int>> shapes = {
-      {1, 3, 1, 1}, {1, 5, 2, 3}, {2, 7, 9, 13}, {1, 4, 16, 8}, {1, 96, 64, 80}};
+  const std::vector<std::vector<int>> shapes = {{1, 3, 1, 1},  {1, 5, 2, 3},    {2, 7, 9, 13},
+                                                {1, 4, 16, 8}, {1, 96, 64, 80}, {2, 6, 37}};
   cv::RNG rng(23);
   for (const auto& shape : shapes) {
     cv::Mat input(shape, CV_32F);
@@ -760,7 +761,7 @@ TEST(GlobalAveragePoolStandIn, MatchesOpenCvsPooling) {
     ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
     // Means of values within [-4, 6], summed in another order than OpenCV's.
     EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-5)
-        << shape[1] << " x " << shape[2] << " x " << shape[3];
+        << cv::dnn::toString(cv::dnn::shape(input));
   }
   cv::Mat input({1, 2, 6, 6}, CV_32F);
   rng.fill(input, cv::RNG::UNIFORM, -1.0, 1.0);

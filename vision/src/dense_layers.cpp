@@ -244,7 +244,8 @@ class SoftmaxLayer final : public cv::dnn::Layer {
   bool log_;
 };
 
-// Global average pooling: each N x C plane's mean, summed in four vectors of lanes.
+// Global average pooling: each N x C plane's mean (planes of any number of dimensions), summed in
+// four vectors of lanes.
 class GlobalAveragePoolLayer final : public cv::dnn::Layer {
  public:
   explicit GlobalAveragePoolLayer(const cv::dnn::LayerParams& params) {
@@ -260,8 +261,10 @@ class GlobalAveragePoolLayer final : public cv::dnn::Layer {
   bool getMemoryShapes(const std::vector<cv::dnn::MatShape>& inputs, int,
                        std::vector<cv::dnn::MatShape>& outputs,
                        std::vector<cv::dnn::MatShape>&) const override {
-    CV_Assert(inputs.size() == 1 && inputs[0].size() == 4);
-    outputs = {{inputs[0][0], inputs[0][1], 1, 1}};
+    CV_Assert(inputs.size() == 1 && inputs[0].size() >= 3);
+    cv::dnn::MatShape out = inputs[0];  // N x C x 1 x ... (every spatial side 1)
+    std::fill(out.begin() + 2, out.end(), 1);
+    outputs = {out};
     return false;
   }
 
@@ -272,8 +275,9 @@ class GlobalAveragePoolLayer final : public cv::dnn::Layer {
     outputs_arr.getMatVector(outputs);
     const cv::Mat& in = inputs.at(0);
     cv::Mat& out = outputs.at(0);
-    CV_Assert(in.type() == CV_32F && in.isContinuous() && out.isContinuous() && in.dims == 4);
-    const int planes = in.size[0] * in.size[1], n = in.size[2] * in.size[3];
+    CV_Assert(in.type() == CV_32F && in.isContinuous() && out.isContinuous() && in.dims >= 3);
+    const int planes = in.size[0] * in.size[1];
+    const int n = planes == 0 ? 0 : int(in.total() / std::size_t(planes));
     if (n == 0) {
       out.setTo(0);  // no pixels: what OpenCV's pooling gives an empty plane
       return;

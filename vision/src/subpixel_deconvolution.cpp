@@ -195,6 +195,7 @@ void SubpixelDeconvolution::run_2x2(const float* src, int h, int w, float* dst,
                                     const cv::dnn::ActivationLayer* activation) {
 #if defined(__GNUC__) && defined(__x86_64__)
   if (cout_ <= kNarrowOutputs) {
+    CV_Assert(weights_.isContinuous() && weights_.type() == CV_32F);
     // Bands of 8 input rows (16 output rows of each output plane, in cache for the activation).
     const int bands = (h + 7) / 8;
     cv::parallel_for_(cv::Range(0, bands * cout_), [&](const cv::Range& range) {
