@@ -484,8 +484,10 @@ TEST(DepthwiseStandIn, MatchesOpenCvsConvolution) {
 // A convolution followed by PP-OCR's chain of activations (hard swish, then its learnable affine
 // block's scale and shift, which OpenCV's importer makes two Power layers; OpenCV offers each to
 // the convolution in turn): the stand-in takes the whole chain and applies it in order, for the
-// 1x1 product and the depthwise stand-in alike. (Before, a stand-in took the first and left the
-// rest layers of their own; before that, the second replaced the first.)
+// 1x1 product and the depthwise stand-in alike (the two Power layers as one multiply-add, after a
+// hard swish in the same pass; after a ReLU, OpenCV's own activation, as a pass of their own).
+// (Before, a stand-in took the first and left the rest layers of their own; before that, the
+// second replaced the first.)
 TEST(StandIns, AChainOfActivationsAfterThemIsAppliedWholeInOrder) {
   if (!matrix_product_layers_supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layer stays";
   cv::RNG rng(15);
@@ -493,64 +495,67 @@ TEST(StandIns, AChainOfActivationsAfterThemIsAppliedWholeInOrder) {
     const char* stand_in;
     int cout, group, kernel;
   };
-  for (const Case& c : {Case{"KeyfleetPointwise", 12, 1, 1}, Case{"KeyfleetDepthwise", 16, 16, 3},
-                        Case{"KeyfleetDepthwise", 16, 16, 5}}) {
-    const Shape s{16, c.cout, 7, 9, true, false};
-    RandomLayer l(rng, s, {s.cout, s.cin / c.group, c.kernel, c.kernel});
-    // fused: the number of the activations that did not run as layers of their own.
-    const auto run = [&](DnnLayers layers, std::string* type, int* fused = nullptr) {
-      cv::dnn::LayerParams conv;
-      conv.name = "conv";
-      conv.type = "Convolution";
-      conv.set("num_output", s.cout);
-      conv.set("group", c.group);
-      const int kernel[] = {c.kernel, c.kernel}, pad = c.kernel / 2, pads[] = {pad, pad, pad, pad};
-      conv.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
-      conv.set("pad", cv::dnn::DictValue::arrayInt(pads, 4));
-      conv.set("bias_term", true);
-      conv.blobs = {l.weights, l.bias};
-      std::optional<DnnLayersScope> scope;
-      if (layers.any()) scope.emplace(layers);
-      cv::dnn::Net net;
-      net.addLayerToPrev(conv.name, conv.type, conv);
-      cv::dnn::LayerParams swish;
-      swish.name = swish.type = "HardSwish";
-      net.addLayerToPrev(swish.name, swish.type, swish);
-      for (const auto& [name, scale, shift] :
-           {std::tuple{"times_two", 2.f, 0.f}, std::tuple{"plus_one", 1.f, 1.f}}) {
-        cv::dnn::LayerParams power;
-        power.name = name;
-        power.type = "Power";
-        power.set("scale", scale);
-        power.set("shift", shift);
-        net.addLayerToPrev(power.name, power.type, power);
+  for (const char* first : {"HardSwish", "ReLU"})  // the scale and shift join a hard swish only
+    for (const Case& c : {Case{"KeyfleetPointwise", 12, 1, 1}, Case{"KeyfleetDepthwise", 16, 16, 3},
+                          Case{"KeyfleetDepthwise", 16, 16, 5}}) {
+      const Shape s{16, c.cout, 7, 9, true, false};
+      RandomLayer l(rng, s, {s.cout, s.cin / c.group, c.kernel, c.kernel});
+      // fused: the number of the activations that did not run as layers of their own.
+      const auto run = [&](DnnLayers layers, std::string* type, int* fused = nullptr) {
+        cv::dnn::LayerParams conv;
+        conv.name = "conv";
+        conv.type = "Convolution";
+        conv.set("num_output", s.cout);
+        conv.set("group", c.group);
+        const int kernel[] = {c.kernel, c.kernel}, pad = c.kernel / 2,
+                  pads[] = {pad, pad, pad, pad};
+        conv.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
+        conv.set("pad", cv::dnn::DictValue::arrayInt(pads, 4));
+        conv.set("bias_term", true);
+        conv.blobs = {l.weights, l.bias};
+        std::optional<DnnLayersScope> scope;
+        if (layers.any()) scope.emplace(layers);
+        cv::dnn::Net net;
+        net.addLayerToPrev(conv.name, conv.type, conv);
+        cv::dnn::LayerParams activation;
+        activation.name = activation.type = first;
+        net.addLayerToPrev(activation.name, activation.type, activation);
+        for (const auto& [name, scale, shift] :
+             {std::tuple{"times_two", 2.f, 0.f}, std::tuple{"plus_one", 1.f, 1.f}}) {
+          cv::dnn::LayerParams power;
+          power.name = name;
+          power.type = "Power";
+          power.set("scale", scale);
+          power.set("shift", shift);
+          net.addLayerToPrev(power.name, power.type, power);
+        }
+        net.setInput(l.input);
+        const cv::Mat out = net.forward().clone();
+        if (type) *type = net.getLayer("conv")->type;
+        if (fused) {
+          std::vector<double> ticks;  // a layer fused into another is skipped: no time of its own
+          net.getPerfProfile(ticks);
+          const std::vector<cv::String> names = net.getLayerNames();
+          *fused = 0;
+          for (std::size_t i = 0; i < names.size() && i < ticks.size(); ++i)
+            if (names[i] != "conv" && ticks[i] == 0) ++*fused;
+        }
+        return out;
+      };
+      const cv::Mat expected = run(DnnLayers::opencv(), nullptr);
+      for (const bool bfloat16 : precisions()) {
+        std::string type;
+        int fused = 0;
+        const cv::Mat got = run(stand_ins(bfloat16), &type, &fused);
+        const bool depthwise = c.group > 1;  // never bfloat16
+        EXPECT_EQ(type, depthwise ? c.stand_in : stand_in_type(c.stand_in, bfloat16, s.cout));
+        EXPECT_EQ(fused, 3) << type << ": the " << first
+                            << " and both Power layers run in the stand-in";
+        // Sums of up to 25 products, through a hard swish or a ReLU, then doubled.
+        const double tolerance = bfloat16 && !depthwise ? 0.1 : 2e-4;
+        EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), tolerance) << type;
       }
-      net.setInput(l.input);
-      const cv::Mat out = net.forward().clone();
-      if (type) *type = net.getLayer("conv")->type;
-      if (fused) {
-        std::vector<double> ticks;  // a layer fused into another is skipped: no time of its own
-        net.getPerfProfile(ticks);
-        const std::vector<cv::String> names = net.getLayerNames();
-        *fused = 0;
-        for (std::size_t i = 0; i < names.size() && i < ticks.size(); ++i)
-          if (names[i] != "conv" && ticks[i] == 0) ++*fused;
-      }
-      return out;
-    };
-    const cv::Mat expected = run(DnnLayers::opencv(), nullptr);
-    for (const bool bfloat16 : precisions()) {
-      std::string type;
-      int fused = 0;
-      const cv::Mat got = run(stand_ins(bfloat16), &type, &fused);
-      const bool depthwise = c.group > 1;  // never bfloat16
-      EXPECT_EQ(type, depthwise ? c.stand_in : stand_in_type(c.stand_in, bfloat16, s.cout));
-      EXPECT_EQ(fused, 3) << type << ": the hard swish and both Power layers run in the stand-in";
-      // Sums of up to 25 products, through a hard swish, then doubled.
-      const double tolerance = bfloat16 && !depthwise ? 0.1 : 2e-4;
-      EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), tolerance) << type;
     }
-  }
 }
 
 // Batched frames reach the transposed convolutions as slices of concatenated blobs (images not

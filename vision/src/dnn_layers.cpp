@@ -74,6 +74,31 @@ void hard_swish_vectorised(const float* src, float* dst, int n) {
 
 namespace {
 
+// dst = scale * src + shift, n floats (in place allowed).
+void scale_shift_vectorised(const float* src, float* dst, int n, float scale, float shift) {
+  const cv::v_float32 a = cv::vx_setall_f32(scale), b = cv::vx_setall_f32(shift);
+  constexpr int kLanes = cv::v_float32::nlanes;
+  int i = 0;
+  for (; i + kLanes <= n; i += kLanes) cv::v_store(dst + i, cv::v_fma(cv::vx_load(src + i), a, b));
+  for (; i < n; ++i) dst[i] = src[i] * scale + shift;
+}
+
+// dst = scale * hard_swish(src) + shift in one pass, n floats (in place allowed).
+void hard_swish_scale_shift_vectorised(const float* src, float* dst, int n, float scale,
+                                       float shift) {
+  const cv::v_float32 zero = cv::vx_setzero_f32(), three = cv::vx_setall_f32(3.f),
+                      six = cv::vx_setall_f32(6.f), a = cv::vx_setall_f32(scale / 6.f),
+                      b = cv::vx_setall_f32(shift);
+  constexpr int kLanes = cv::v_float32::nlanes;
+  int i = 0;
+  for (; i + kLanes <= n; i += kLanes) {
+    const cv::v_float32 x = cv::vx_load(src + i);
+    cv::v_store(dst + i, cv::v_fma(x * cv::v_min(cv::v_max(x + three, zero), six), a, b));
+  }
+  for (; i < n; ++i)
+    dst[i] = src[i] * std::min(std::max(src[i] + 3.f, 0.f), 6.f) * (scale / 6.f) + shift;
+}
+
 // An element-wise activation computed by apply(src, dst, n) over whole planes; OpenCV fuses it
 // into the convolution or sum before it where that layer takes an activation. Base: the OpenCV
 // class it stands in for (what OpenCV's fusions look for).
@@ -190,41 +215,70 @@ class VectorisedPowerLayer final : public PlaneActivationLayer<cv::dnn::PowerLay
       for (int i = 0; i < n; ++i) dst[i] = std::pow(shift + scale * src[i], power);
       return;
     }
-    const cv::v_float32 a = cv::vx_setall_f32(scale), b = cv::vx_setall_f32(shift);
-    constexpr int kLanes = cv::v_float32::nlanes;
-    int i = 0;
-    for (; i + kLanes <= n; i += kLanes)
-      cv::v_store(dst + i, cv::v_fma(cv::vx_load(src + i), a, b));
-    for (; i < n; ++i) dst[i] = src[i] * scale + shift;
+    scale_shift_vectorised(src, dst, n, scale, shift);
   }
 };
 
 // The activations OpenCV fuses into a stand-in, applied in turn to each output plane while it is in
 // cache: PP-OCR's layers end in a chain of three (hard swish, then the learnable affine block's
 // scale and shift, which OpenCV makes two Power layers), each a pass over memory of its own when
-// not fused. The first reads the plane where the layer wrote it, the others work in place.
+// not fused. Power layers of power 1 after each other become one multiply-add, and that one joins
+// the hard swish before it: PP-OCR's chain of three is one pass (the sums rounded once where they
+// were rounded two or three times). The first step reads the plane where the layer wrote it, the
+// others work in place.
 class ActivationChain final : public cv::dnn::ActivationLayer {
  public:
   // Takes `layer` after those it has (OpenCV offers each of a chain in turn); empty clears it.
   bool add(const cv::Ptr<cv::dnn::ActivationLayer>& layer) {
     if (layer.empty()) {
-      layers_.clear();
+      steps_.clear();
       return false;
     }
-    layers_.push_back(layer);
+    const auto* power = dynamic_cast<const cv::dnn::PowerLayer*>(layer.get());
+    if (power && power->power == 1.f) {
+      Step* last = steps_.empty() ? nullptr : &steps_.back();
+      if (!last || !(last->affine || dynamic_cast<const HardSwishLayer*>(last->layer.get()))) {
+        steps_.push_back({nullptr, true, power->scale, power->shift});
+        return true;
+      }
+      // scale' (scale x + shift) + shift'
+      last->shift = power->scale * (last->affine ? last->shift : 0.f) + power->shift;
+      last->scale = power->scale * (last->affine ? last->scale : 1.f);
+      last->affine = true;
+      return true;
+    }
+    steps_.push_back({layer, false, 1.f, 0.f});
     return true;
   }
   // Null where there is nothing to apply: what the kernels take.
-  const cv::dnn::ActivationLayer* get() const { return layers_.empty() ? nullptr : this; }
+  const cv::dnn::ActivationLayer* get() const { return steps_.empty() ? nullptr : this; }
 
   void forwardSlice(const float* src, float* dst, int len, size_t plane_size, int cn0,
                     int cn1) const override {
-    for (std::size_t i = 0; i < layers_.size(); ++i)
-      layers_[i]->forwardSlice(i == 0 ? src : dst, dst, len, plane_size, cn0, cn1);
+    for (std::size_t i = 0; i < steps_.size(); ++i) {
+      const Step& step = steps_[i];
+      const float* in = i == 0 ? src : dst;
+      if (step.layer && !step.affine) {
+        step.layer->forwardSlice(in, dst, len, plane_size, cn0, cn1);
+        continue;
+      }
+      for (int c = cn0; c < cn1; ++c) {
+        const std::size_t at = std::size_t(c - cn0) * plane_size;
+        if (step.layer)  // a hard swish, then its scale and shift
+          hard_swish_scale_shift_vectorised(in + at, dst + at, len, step.scale, step.shift);
+        else
+          scale_shift_vectorised(in + at, dst + at, len, step.scale, step.shift);
+      }
+    }
   }
 
  private:
-  std::vector<cv::Ptr<cv::dnn::ActivationLayer>> layers_;
+  struct Step {
+    cv::Ptr<cv::dnn::ActivationLayer> layer;  // null: the scale and shift alone
+    bool affine;                              // scale and shift after the layer
+    float scale, shift;
+  };
+  std::vector<Step> steps_;
 };
 
 bool both_are(const std::vector<std::size_t>& values, std::size_t v) {
