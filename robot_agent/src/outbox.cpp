@@ -141,10 +141,13 @@ std::optional<std::uint64_t> Outbox::renumber(std::uint64_t sequence) {
 
 std::vector<Keyframe> Outbox::due_for_resend(std::int64_t now_ns, std::size_t max, bool with_held) {
   const auto threshold = now_ns - static_cast<std::int64_t>(bounds_.resend_after_s * 1e9);
-  auto query = db_.prepare(
-      "SELECT " + column_list(columns()) +
-      " FROM pending WHERE (last_sent_ns IS NULL OR last_sent_ns <= ? OR last_sent_ns > ?) AND "
-      "(held = 0 OR ?) ORDER BY held, value DESC, sequence_number LIMIT ?");
+  if (!due_query_)
+    due_query_.emplace(db_.prepare(
+        "SELECT " + column_list(columns()) +
+        " FROM pending WHERE (last_sent_ns IS NULL OR last_sent_ns <= ? OR last_sent_ns > ?) AND "
+        "(held = 0 OR ?) ORDER BY held, value DESC, sequence_number LIMIT ?"));
+  SqliteStatement& query = *due_query_;
+  query.reset();  // also after a call that threw half-way
   query.bind(1, threshold)
       .bind(2, now_ns)
       .bind(3, static_cast<std::int64_t>(with_held ? 1 : 0))
@@ -156,6 +159,7 @@ std::vector<Keyframe> Outbox::due_for_resend(std::int64_t now_ns, std::size_t ma
     read_record(query, k, RecordStore::kOutbox);
     due.push_back(std::move(k));
   }
+  query.reset();
   return due;
 }
 
@@ -168,12 +172,16 @@ std::vector<std::uint64_t> Outbox::evict(std::int64_t now_ns, bool by_age) {
   }
   const auto oldest_allowed = by_age ? now_ns - static_cast<std::int64_t>(bounds_.max_age_s * 1e9)
                                      : std::numeric_limits<std::int64_t>::min();
-  auto query = db_.prepare(
-      "SELECT sequence_number FROM pending WHERE created_ns < ? OR sequence_number NOT IN "
-      "(SELECT sequence_number FROM pending ORDER BY held, sequence_number DESC LIMIT ?)");
+  if (!evict_query_)
+    evict_query_.emplace(db_.prepare(
+        "SELECT sequence_number FROM pending WHERE created_ns < ? OR sequence_number NOT IN "
+        "(SELECT sequence_number FROM pending ORDER BY held, sequence_number DESC LIMIT ?)"));
+  SqliteStatement& query = *evict_query_;
+  query.reset();
   query.bind(1, oldest_allowed).bind(2, static_cast<std::int64_t>(bounds_.max_pending));
   std::vector<std::uint64_t> evicted;
   while (query.step()) evicted.push_back(static_cast<std::uint64_t>(query.int64(0)));
+  query.reset();  // its read ends before the deletions below
   for (const auto sequence : evicted) acknowledge(sequence);
   return evicted;
 }
