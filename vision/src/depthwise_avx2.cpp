@@ -99,7 +99,13 @@ __attribute__((target("avx2,fma"))) void split_even_odd_columns(const float* src
     if (2 * j + 1 < n) odd[j] = src[2 * j + 1];
   }
 }
-
+#else
+void split_even_odd_columns(const float* src, int n, float* even, float* odd) {
+  for (int j = 0; 2 * j < n; ++j) {
+    even[j] = src[2 * j];
+    if (2 * j + 1 < n) odd[j] = src[2 * j + 1];
+  }
+}
 #endif
 
 #ifdef KEYFLEET_DEPTHWISE_X86

@@ -19,8 +19,8 @@ void depthwise_plane_avx2(const float* src, int h, int w, const float* kernel, i
                           int dh, int dw, int pt, int pl, int sh, int sw, float bias, float* dst,
                           int ho, int wo);
 
-// The even and odd columns of the n floats at src into even[0, (n + 1) / 2) and odd[0, n / 2).
-// Requires depthwise_avx2_supported().
+// The even and odd columns of the n floats at src into even[0, (n + 1) / 2) and odd[0, n / 2)
+// (in AVX2 on x86-64: requires depthwise_avx2_supported() there).
 void split_even_odd_columns(const float* src, int n, float* even, float* odd);
 
 }  // namespace keyfleet::vision
