@@ -286,6 +286,7 @@ def fuse_residual_excitation(model):
     the same to float rounding in one pass over the planes where OpenCV made two (the product,
     then the sum as a full-size layer of its own, reading both); the + 1 is on the C gates."""
     graph = model.graph
+    graph_outputs = {o.name for o in graph.output}
     count = 0
     for add in list(graph.node):
         if add.op_type != "Add" or len(add.input) != 2:
@@ -294,7 +295,7 @@ def fuse_residual_excitation(model):
             mul = producer(graph, scaled)
             if mul is None or mul.op_type != "Mul" or x not in mul.input or len(mul.input) != 2:
                 continue
-            if len(consumers(graph, scaled)) != 1 or scaled in {o.name for o in graph.output}:
+            if len(consumers(graph, scaled)) != 1 or scaled in graph_outputs:
                 continue
             gate = mul.input[1] if mul.input[0] == x else mul.input[0]
             if gate == x or getattr(producer(graph, gate), "op_type", "") != "HardSigmoid":

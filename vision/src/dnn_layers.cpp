@@ -60,28 +60,7 @@ void selu_vectorised(const float* src, float* dst, int n, float alpha, float gam
   }
 }
 
-void hard_swish_vectorised(const float* src, float* dst, int n) {
-  const cv::v_float32 zero = cv::vx_setzero_f32(), three = cv::vx_setall_f32(3.f),
-                      six = cv::vx_setall_f32(6.f), sixth = cv::vx_setall_f32(1.f / 6.f);
-  constexpr int kLanes = cv::v_float32::nlanes;
-  int i = 0;
-  for (; i + kLanes <= n; i += kLanes) {
-    const cv::v_float32 x = cv::vx_load(src + i);
-    cv::v_store(dst + i, x * cv::v_min(cv::v_max(x + three, zero), six) * sixth);
-  }
-  for (; i < n; ++i) dst[i] = src[i] * std::min(std::max(src[i] + 3.f, 0.f), 6.f) * (1.f / 6.f);
-}
-
 namespace {
-
-// dst = scale * src + shift, n floats (in place allowed).
-void scale_shift_vectorised(const float* src, float* dst, int n, float scale, float shift) {
-  const cv::v_float32 a = cv::vx_setall_f32(scale), b = cv::vx_setall_f32(shift);
-  constexpr int kLanes = cv::v_float32::nlanes;
-  int i = 0;
-  for (; i + kLanes <= n; i += kLanes) cv::v_store(dst + i, cv::v_fma(cv::vx_load(src + i), a, b));
-  for (; i < n; ++i) dst[i] = src[i] * scale + shift;
-}
 
 // dst = scale * hard_swish(src) + shift in one pass, n floats (in place allowed).
 void hard_swish_scale_shift_vectorised(const float* src, float* dst, int n, float scale,
@@ -97,6 +76,23 @@ void hard_swish_scale_shift_vectorised(const float* src, float* dst, int n, floa
   }
   for (; i < n; ++i)
     dst[i] = src[i] * std::min(std::max(src[i] + 3.f, 0.f), 6.f) * (scale / 6.f) + shift;
+}
+
+}  // namespace
+
+void hard_swish_vectorised(const float* src, float* dst, int n) {
+  hard_swish_scale_shift_vectorised(src, dst, n, 1.f, 0.f);
+}
+
+namespace {
+
+// dst = scale * src + shift, n floats (in place allowed).
+void scale_shift_vectorised(const float* src, float* dst, int n, float scale, float shift) {
+  const cv::v_float32 a = cv::vx_setall_f32(scale), b = cv::vx_setall_f32(shift);
+  constexpr int kLanes = cv::v_float32::nlanes;
+  int i = 0;
+  for (; i + kLanes <= n; i += kLanes) cv::v_store(dst + i, cv::v_fma(cv::vx_load(src + i), a, b));
+  for (; i < n; ++i) dst[i] = src[i] * scale + shift;
 }
 
 // An element-wise activation computed by apply(src, dst, n) over whole planes; OpenCV fuses it
