@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 
 namespace keyfleet::agent {
 
@@ -43,31 +44,28 @@ std::vector<cv::Point2f> spread_corners(const cv::Mat& whole, int max_points, in
 }
 
 KltSlamTrigger::KltSlamTrigger(const KltTriggerParams& params)
-    : params_(params), decision_(params.decision) {}
+    : params_(params),
+      decision_(params.decision),
+      tracker_(LucasKanadeParams{params.window_px, params.pyramid_levels, params.iterations, 0.03},
+               params.vectorised_tracker) {}
 
 void KltSlamTrigger::make_reference() {
   reference_points_ = spread_corners(grey_, params_.max_points, params_.cell_px,
                                      params_.fast_threshold, params_.border_px);
   previous_points_ = reference_points_;
   corners_ = reference_points_.size();
-  const cv::Size window(params_.window_px, params_.window_px);
-  cv::buildOpticalFlowPyramid(grey_, reference_pyramid_, window, params_.pyramid_levels - 1, true);
+  ids_.resize(corners_);
+  std::iota(ids_.begin(), ids_.end(), 0);
+  tracker_.set_reference(grey_, reference_points_);
   step_ = {0, 0};
   decision_.restart();
 }
 
 int KltSlamTrigger::track() {
   if (reference_points_.size() < 8) return int(reference_points_.size());
-  const cv::Size window(params_.window_px, params_.window_px);
-  const int max_level =
-      cv::buildOpticalFlowPyramid(grey_, pyramid_, window, params_.pyramid_levels - 1, false);
-  guess_.resize(previous_points_.size());
-  for (std::size_t i = 0; i < guess_.size(); ++i) guess_[i] = previous_points_[i] + step_;
-  tracked_ = guess_;
-  cv::calcOpticalFlowPyrLK(
-      reference_pyramid_, pyramid_, reference_points_, tracked_, status_, error_, window, max_level,
-      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, params_.iterations, 0.03),
-      cv::OPTFLOW_USE_INITIAL_FLOW);
+  tracked_.resize(previous_points_.size());
+  for (std::size_t i = 0; i < tracked_.size(); ++i) tracked_[i] = previous_points_[i] + step_;
+  tracker_.track(grey_, ids_, tracked_, status_, error_);
   // Keep the corners tracked inside the border.
   const float b = float(params_.border_px);
   const cv::Rect2f inside(b, b, float(grey_.cols - 1) - 2 * b, float(grey_.rows - 1) - 2 * b);
@@ -76,8 +74,10 @@ int KltSlamTrigger::track() {
     if (!status_[i] || error_[i] > params_.max_error || !inside.contains(tracked_[i])) continue;
     reference_points_[kept] = reference_points_[i];
     previous_points_[kept] = previous_points_[i];
+    ids_[kept] = ids_[i];
     tracked_[kept++] = tracked_[i];
   }
+  ids_.resize(kept);
   reference_points_.resize(kept);
   previous_points_.resize(kept);
   tracked_.resize(kept);
@@ -97,8 +97,10 @@ int KltSlamTrigger::track() {
     dx.push_back(tracked_[i].x - previous_points_[i].x);
     dy.push_back(tracked_[i].y - previous_points_[i].y);
     reference_points_[kept] = reference_points_[i];
+    ids_[kept] = ids_[i];
     previous_points_[kept++] = tracked_[i];
   }
+  ids_.resize(kept);
   reference_points_.resize(kept);
   previous_points_.resize(kept);
   if (!dx.empty()) {  // constant velocity: the next frame moves as this one did

@@ -6,6 +6,7 @@
 
 #include "keyfleet/agent/image_quality.hpp"
 #include "keyfleet/agent/keyframe_trigger.hpp"
+#include "keyfleet/agent/lucas_kanade.hpp"
 #include "keyfleet/agent/need_new_keyframe.hpp"
 
 namespace keyfleet::agent {
@@ -23,6 +24,9 @@ struct KltTriggerParams {
   double max_error = 30;     // mean absolute grey difference of a tracked window, at most
   int border_px = 8;         // corners detected and tracked this far inside the image only
   double ransac_px = 1.0;    // epipolar distance threshold, pixels of the resized image
+  // KeyframeTracker's AVX2 path where the CPU has it (lucas_kanade.hpp); false: OpenCV's
+  // calcOpticalFlowPyrLK (the same arithmetic; for comparisons).
+  bool vectorised_tracker = true;
 };
 
 // Emulates ORB-SLAM2's monocular Tracking::NeedNewKeyFrame (need_new_keyframe.hpp) as
@@ -52,13 +56,13 @@ class KltSlamTrigger final : public KeyframeTrigger {
   KltTriggerParams params_;
   NeedNewKeyframe decision_;
   AreaResizer resizer_;
-  cv::Mat resized_, own_grey_;              // the frame area-resized, then in grey (buffers reused)
-  cv::Mat grey_;                            // the grey image tracked: own_grey_ or the one given
-  std::vector<cv::Mat> reference_pyramid_;  // with derivatives, built on keyframes
-  std::vector<cv::Mat> pyramid_;            // the current frame's
+  cv::Mat resized_, own_grey_;  // the frame area-resized, then in grey (buffers reused)
+  cv::Mat grey_;                // the grey image tracked: own_grey_ or the one given
+  KeyframeTracker tracker_;     // holds the keyframe's pyramid and windows
+  std::vector<int> ids_;        // the tracker's index of each corner still tracked
   std::vector<cv::Point2f> reference_points_;  // corners still tracked, in the keyframe
   std::vector<cv::Point2f> previous_points_;   // the same corners in the previous frame
-  std::vector<cv::Point2f> guess_, tracked_;
+  std::vector<cv::Point2f> tracked_;
   std::vector<std::uint8_t> status_;
   std::vector<float> error_;
   std::size_t corners_ = 0;
