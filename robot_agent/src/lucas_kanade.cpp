@@ -25,8 +25,6 @@ constexpr float kSumScale = 1.f / (1 << 20);
 constexpr float kMinEigenvalue = 1e-4f;  // calcOpticalFlowPyrLK's default minEigThreshold
 constexpr std::size_t kLanes = 16;       // a window row: one AVX2 vector of int16
 
-int descale(int x, int n) { return (x + (1 << (n - 1))) >> n; }
-
 struct Weights {
   int w00, w01, w10, w11;
 };
@@ -56,6 +54,50 @@ __attribute__((target("avx2"))) inline int lane_sum(__m256i v) {
   return _mm_cvtsi128_si32(s);
 }
 
+// The weights as madd_epi16 pairs: (w00, w01) for the top row, (w10, w11) for the bottom.
+struct PairWeights {
+  __m256i top, bottom;
+};
+
+__attribute__((target("avx2"))) inline PairWeights pair_weights(Weights w) {
+  return {_mm256_set1_epi32(int(std::uint32_t(w.w01) << 16 | std::uint32_t(w.w00))),
+          _mm256_set1_epi32(int(std::uint32_t(w.w11) << 16 | std::uint32_t(w.w10)))};
+}
+
+// p00..p11: 16 int16 each, the window's corners; returns sum(weight x value) descaled by
+// `shift` (rounded), 16 int16 in order. unpacklo holds 4 values of each 128-bit half and
+// unpackhi the other 4; packing them back restores the order.
+__attribute__((target("avx2"))) inline __m256i bilinear(__m256i p00, __m256i p01, __m256i p10,
+                                                        __m256i p11, PairWeights w, int shift) {
+  const __m256i half = _mm256_set1_epi32(1 << (shift - 1));
+  __m256i lo = _mm256_add_epi32(_mm256_madd_epi16(_mm256_unpacklo_epi16(p00, p01), w.top),
+                                _mm256_madd_epi16(_mm256_unpacklo_epi16(p10, p11), w.bottom));
+  __m256i hi = _mm256_add_epi32(_mm256_madd_epi16(_mm256_unpackhi_epi16(p00, p01), w.top),
+                                _mm256_madd_epi16(_mm256_unpackhi_epi16(p10, p11), w.bottom));
+  lo = _mm256_srai_epi32(_mm256_add_epi32(lo, half), shift);
+  hi = _mm256_srai_epi32(_mm256_add_epi32(hi, half), shift);
+  return _mm256_packs_epi32(lo, hi);
+}
+
+__attribute__((target("avx2"))) inline __m256i widen(const std::uint8_t* p) {  // 16 of them
+  return _mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p)));
+}
+
+__attribute__((target("avx2"))) inline __m256i load16(const std::int16_t* p) {
+  return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
+}
+
+// 16 grey levels (1/32) interpolated from two 8-bit rows r0 and r1 = r0 + step (17 read each).
+__attribute__((target("avx2"))) inline __m256i grey_row(const std::uint8_t* r0,
+                                                        const std::uint8_t* r1, PairWeights w) {
+  return bilinear(widen(r0), widen(r0 + 1), widen(r1), widen(r1 + 1), w, kGreyShift);
+}
+
+__attribute__((target("avx2"))) inline __m256i first_lanes(int width) {  // 0xffff below width
+  const __m256i lane = _mm256_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  return _mm256_cmpgt_epi16(_mm256_set1_epi16(short(width)), lane);
+}
+
 // One pass over a window of the frame at (its top-left) `j`: each row, 16 pixels, is
 // interpolated with the weights w (in 1/32 grey levels, as the reference's), then differenced
 // from the reference window's grey levels `grey`. kError: returns the sum of |difference| over
@@ -68,42 +110,67 @@ __attribute__((target("avx2"))) void window_pass(const std::uint8_t* j, std::ptr
                                                  int rows, int width, Weights w,
                                                  const std::int16_t* grey, const std::int16_t* dx,
                                                  const std::int16_t* dy, int& b1, int& b2) {
-  const __m256i top = _mm256_set1_epi32(int(std::uint32_t(w.w01) << 16 | std::uint32_t(w.w00)));
-  const __m256i bottom = _mm256_set1_epi32(int(std::uint32_t(w.w11) << 16 | std::uint32_t(w.w10)));
-  const __m256i half = _mm256_set1_epi32(1 << (kGreyShift - 1));
-  const __m256i lane = _mm256_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-  const __m256i keep =  // 1 in the window's lanes, 0 beyond
-      _mm256_and_si256(_mm256_cmpgt_epi16(_mm256_set1_epi16(short(width)), lane),
-                       _mm256_set1_epi16(1));
+  const PairWeights pw = pair_weights(w);
+  const __m256i keep = _mm256_and_si256(first_lanes(width), _mm256_set1_epi16(1));
   __m256i sum1 = _mm256_setzero_si256(), sum2 = _mm256_setzero_si256();
   for (int y = 0; y < rows; ++y) {
     const std::uint8_t* r0 = j + std::ptrdiff_t(y) * step;
-    const std::uint8_t* r1 = r0 + step;
-    const __m256i p00 = _mm256_cvtepu8_epi16(_mm_loadu_si128((const __m128i*)r0));
-    const __m256i p01 = _mm256_cvtepu8_epi16(_mm_loadu_si128((const __m128i*)(r0 + 1)));
-    const __m256i p10 = _mm256_cvtepu8_epi16(_mm_loadu_si128((const __m128i*)r1));
-    const __m256i p11 = _mm256_cvtepu8_epi16(_mm_loadu_si128((const __m128i*)(r1 + 1)));
-    // Pixels 0-3 and 8-11 in lo, 4-7 and 12-15 in hi; packing them back restores the order.
-    __m256i lo = _mm256_add_epi32(_mm256_madd_epi16(_mm256_unpacklo_epi16(p00, p01), top),
-                                  _mm256_madd_epi16(_mm256_unpacklo_epi16(p10, p11), bottom));
-    __m256i hi = _mm256_add_epi32(_mm256_madd_epi16(_mm256_unpackhi_epi16(p00, p01), top),
-                                  _mm256_madd_epi16(_mm256_unpackhi_epi16(p10, p11), bottom));
-    lo = _mm256_srai_epi32(_mm256_add_epi32(lo, half), kGreyShift);
-    hi = _mm256_srai_epi32(_mm256_add_epi32(hi, half), kGreyShift);
     const std::size_t row = std::size_t(y) * kLanes;
-    const __m256i diff = _mm256_subs_epi16(_mm256_packs_epi32(lo, hi),
-                                           _mm256_loadu_si256((const __m256i*)(grey + row)));
+    const __m256i diff = _mm256_subs_epi16(grey_row(r0, r0 + step, pw), load16(grey + row));
     if constexpr (kError) {
       sum1 = _mm256_add_epi32(sum1, _mm256_madd_epi16(_mm256_abs_epi16(diff), keep));
     } else {
-      const __m256i gx = _mm256_loadu_si256((const __m256i*)(dx + row));
-      const __m256i gy = _mm256_loadu_si256((const __m256i*)(dy + row));
-      sum1 = _mm256_add_epi32(sum1, _mm256_madd_epi16(diff, gx));
-      sum2 = _mm256_add_epi32(sum2, _mm256_madd_epi16(diff, gy));
+      sum1 = _mm256_add_epi32(sum1, _mm256_madd_epi16(diff, load16(dx + row)));
+      sum2 = _mm256_add_epi32(sum2, _mm256_madd_epi16(diff, load16(dy + row)));
     }
   }
   b1 = lane_sum(sum1);
   b2 = kError ? 0 : lane_sum(sum2);
+}
+
+// 8 pixels' derivatives (x, y pairs from rows d0 and d1) interpolated, as [8 x | 8 y].
+__attribute__((target("avx2"))) inline __m256i derivative_pairs(const std::int16_t* d0,
+                                                                const std::int16_t* d1,
+                                                                PairWeights w, __m256i split) {
+  const __m256i v =
+      bilinear(load16(d0), load16(d0 + 2), load16(d1), load16(d1 + 2), w, kWeightBits);
+  return _mm256_permute4x64_epi64(_mm256_shuffle_epi8(v, split), _MM_SHUFFLE(3, 1, 2, 0));
+}
+
+// A reference window at `image` / `deriv` (CV_16SC2) position (x0, y0), `rows` rows of 16
+// pixels: its grey levels and derivatives (0 beyond `width`) into the three planes, and the
+// sums of dx dx, dx dy and dy dy over it (each lane two products a row under 2^24).
+__attribute__((target("avx2"))) void reference_window(const cv::Mat& image, const cv::Mat& deriv,
+                                                      int x0, int y0, int rows, int width,
+                                                      Weights w, std::int16_t* grey,
+                                                      std::int16_t* dx, std::int16_t* dy,
+                                                      std::int64_t sums[3]) {
+  const PairWeights pw = pair_weights(w);
+  const __m256i keep = first_lanes(width);
+  // Within each 128-bit half: x0 x1 x2 x3 y0 y1 y2 y3 from x0 y0 x1 y1 x2 y2 x3 y3.
+  const __m256i split = _mm256_setr_epi8(0, 1, 4, 5, 8, 9, 12, 13, 2, 3, 6, 7, 10, 11, 14, 15, 0, 1,
+                                         4, 5, 8, 9, 12, 13, 2, 3, 6, 7, 10, 11, 14, 15);
+  __m256i s11 = _mm256_setzero_si256(), s12 = s11, s22 = s11;
+  for (int y = 0; y < rows; ++y) {
+    const std::size_t row = std::size_t(y) * kLanes;
+    _mm256_storeu_si256(
+        (__m256i*)(grey + row),
+        grey_row(at<std::uint8_t>(image, x0, y0 + y), at<std::uint8_t>(image, x0, y0 + y + 1), pw));
+    const std::int16_t* d0 = at<std::int16_t>(deriv, x0, y0 + y, 2);
+    const std::int16_t* d1 = at<std::int16_t>(deriv, x0, y0 + y + 1, 2);
+    const __m256i first = derivative_pairs(d0, d1, pw, split);
+    const __m256i second = derivative_pairs(d0 + 16, d1 + 16, pw, split);
+    const __m256i gx = _mm256_and_si256(_mm256_permute2x128_si256(first, second, 0x20), keep);
+    const __m256i gy = _mm256_and_si256(_mm256_permute2x128_si256(first, second, 0x31), keep);
+    _mm256_storeu_si256((__m256i*)(dx + row), gx);
+    _mm256_storeu_si256((__m256i*)(dy + row), gy);
+    s11 = _mm256_add_epi32(s11, _mm256_madd_epi16(gx, gx));
+    s12 = _mm256_add_epi32(s12, _mm256_madd_epi16(gx, gy));
+    s22 = _mm256_add_epi32(s22, _mm256_madd_epi16(gy, gy));
+  }
+  sums[0] = lane_sum(s11);
+  sums[1] = lane_sum(s12);
+  sums[2] = lane_sum(s22);
 }
 #endif
 
@@ -136,13 +203,16 @@ bool KeyframeTracker::available() {
 
 void KeyframeTracker::set_reference(const cv::Mat& grey, const std::vector<cv::Point2f>& corners) {
   CV_Assert(grey.type() == CV_8UC1);
-  const cv::Size window(params_.window_px, params_.window_px);
-  cv::buildOpticalFlowPyramid(grey, reference_, window, params_.levels - 1, true);
+  // The AVX2 rows read 17 pixels from a window's left edge, which may be the image's last
+  // column: both pyramids then get a border that wide.
+  const int border = vectorised_ ? int(kLanes) + 1 : params_.window_px;
+  cv::buildOpticalFlowPyramid(grey, reference_, cv::Size(border, border), params_.levels - 1, true);
   corners_ = corners;
   if (vectorised_) make_windows(corners);
 }
 
 void KeyframeTracker::make_windows(const std::vector<cv::Point2f>& corners) {
+#ifdef KEYFLEET_LK_X86
   const int w = params_.window_px;
   const float half = float(w - 1) * 0.5f;
   const std::size_t plane = std::size_t(w) * kLanes;
@@ -164,30 +234,9 @@ void KeyframeTracker::make_windows(const std::vector<cv::Point2f>& corners) {
       std::int16_t* grey = windows_.data() + win.offset;
       std::int16_t* dx = grey + plane;
       std::int16_t* dy = dx + plane;
-      std::int64_t s11 = 0, s12 = 0, s22 = 0;
-      for (int y = 0; y < w; ++y) {
-        const std::uint8_t* s0 = at<std::uint8_t>(image, x0, y0 + y);
-        const std::uint8_t* s1 = at<std::uint8_t>(image, x0, y0 + y + 1);
-        const std::int16_t* d0 = at<std::int16_t>(deriv, x0, y0 + y, 2);
-        const std::int16_t* d1 = at<std::int16_t>(deriv, x0, y0 + y + 1, 2);
-        for (int x = 0; x < w; ++x) {
-          const std::size_t i = std::size_t(y) * kLanes + std::size_t(x);
-          grey[i] = std::int16_t(
-              descale(s0[x] * iw.w00 + s0[x + 1] * iw.w01 + s1[x] * iw.w10 + s1[x + 1] * iw.w11,
-                      kGreyShift));
-          const int gx = descale(d0[2 * x] * iw.w00 + d0[2 * x + 2] * iw.w01 + d1[2 * x] * iw.w10 +
-                                     d1[2 * x + 2] * iw.w11,
-                                 kWeightBits);
-          const int gy = descale(d0[2 * x + 1] * iw.w00 + d0[2 * x + 3] * iw.w01 +
-                                     d1[2 * x + 1] * iw.w10 + d1[2 * x + 3] * iw.w11,
-                                 kWeightBits);
-          dx[i] = std::int16_t(gx);
-          dy[i] = std::int16_t(gy);
-          s11 += gx * gx;
-          s12 += gx * gy;
-          s22 += gy * gy;
-        }
-      }
+      std::int64_t sums[3];
+      reference_window(image, deriv, x0, y0, w, w, iw, grey, dx, dy, sums);
+      const std::int64_t s11 = sums[0], s12 = sums[1], s22 = sums[2];
       win.a11 = float(s11) * kSumScale;
       win.a12 = float(s12) * kSumScale;
       win.a22 = float(s22) * kSumScale;
@@ -200,6 +249,9 @@ void KeyframeTracker::make_windows(const std::vector<cv::Point2f>& corners) {
       if (win.conditioned) win.inverse_det = 1.f / det;
     }
   }
+#else
+  (void)corners;
+#endif
 }
 
 void KeyframeTracker::track(const cv::Mat& grey, const std::vector<int>& ids,
@@ -208,8 +260,6 @@ void KeyframeTracker::track(const cv::Mat& grey, const std::vector<int>& ids,
   CV_Assert(grey.type() == CV_8UC1 && !reference_.empty());
   CV_Assert(tracked.size() == ids.size());
   const int w = params_.window_px;
-  // The AVX2 rows read 17 pixels from a window's left edge, which may be the image's last
-  // column: the frame's pyramid gets a border that wide.
   const int border = vectorised_ ? int(kLanes) + 1 : w;
   const int frame_top = cv::buildOpticalFlowPyramid(grey, frame_, cv::Size(border, border),
                                                     params_.levels - 1, false);
