@@ -787,5 +787,49 @@ TEST(GlobalAveragePoolStandIn, MatchesOpenCvsPooling) {
   }
 }
 
+// Nearest-neighbour Resize (PP-OCR's FPN upsamplings) against OpenCV's, to the bit: factors 2,
+// 4 and 8, unequal factors, rows narrower and wider than a vector, a batch of two, an output
+// that is a slice of a concatenation; a factor of 3 (OpenCV's own loop, inside the stand-in) and
+// a bilinear resize (OpenCV's layer) too.
+TEST(NearestUpsamplingStandIn, MatchesOpenCvsResize) {
+  struct Case {
+    std::vector<int> shape;
+    int zoom_y, zoom_x;
+    const char* then;
+  };
+  const std::vector<Case> cases = {
+      {{1, 96, 8, 10}, 2, 2, nullptr},  {{1, 24, 8, 10}, 8, 8, nullptr},
+      {{1, 24, 16, 20}, 4, 4, nullptr}, {{2, 3, 5, 3}, 2, 4, nullptr},
+      {{1, 2, 3, 7}, 8, 2, nullptr},    {{1, 4, 6, 5}, 3, 3, nullptr},
+      {{2, 5, 4, 6}, 2, 2, "Concat"}};
+  cv::RNG rng(29);
+  for (const Case& c : cases) {
+    cv::Mat input(c.shape, CV_32F);
+    rng.fill(input, cv::RNG::UNIFORM, -3.0, 3.0);
+    cv::dnn::LayerParams params;
+    params.type = "Resize";
+    params.set("interpolation", "nearest");
+    params.set("zoom_factor_y", c.zoom_y);
+    params.set("zoom_factor_x", c.zoom_x);
+    std::string type;
+    const cv::Mat got = run_one_layer(params, input, DnnLayers::in_float(), &type, c.then);
+    const cv::Mat expected = run_one_layer(params, input, DnnLayers::opencv(), nullptr, c.then);
+    const std::string label = cv::dnn::toString(cv::dnn::shape(input)) + " x" +
+                              std::to_string(c.zoom_y) + "," + std::to_string(c.zoom_x);
+    EXPECT_EQ(type, "KeyfleetNearestUpsampling") << label;
+    ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected)) << label;
+    EXPECT_EQ(cv::norm(got, expected, cv::NORM_INF), 0) << label;
+  }
+  cv::Mat input({1, 2, 4, 4}, CV_32F);
+  rng.fill(input, cv::RNG::UNIFORM, -1.0, 1.0);
+  cv::dnn::LayerParams params;
+  params.type = "Resize";
+  params.set("interpolation", "bilinear");
+  params.set("zoom_factor", 2);
+  std::string type;
+  run_one_layer(params, input, DnnLayers::in_float(), &type);
+  EXPECT_EQ(type, "Resize");
+}
+
 }  // namespace
 }  // namespace keyfleet::vision

@@ -7,7 +7,9 @@
 // take: the inner product where the CPU lacks AVX2 and FMA or where it has no constant weights; the
 // softmax (at run time) over another axis or as log-softmax. And the global average pooling of
 // squeeze-and-excitation blocks (PP-OCR's detector has ten) summed in SIMD lanes, where OpenCV 4.6
-// runs its general pooling loop; other poolings stay OpenCV's. Internal to keyfleet_vision.
+// runs its general pooling loop; other poolings stay OpenCV's. And nearest-neighbour upsampling
+// by powers of two (nearest_upsampling.cpp; other resizes stay OpenCV's). Internal to
+// keyfleet_vision.
 #include <opencv2/dnn.hpp>
 
 namespace keyfleet::vision {
@@ -15,5 +17,6 @@ namespace keyfleet::vision {
 cv::Ptr<cv::dnn::Layer> create_inner_product(cv::dnn::LayerParams& params);
 cv::Ptr<cv::dnn::Layer> create_softmax(cv::dnn::LayerParams& params);
 cv::Ptr<cv::dnn::Layer> create_pooling(cv::dnn::LayerParams& params);
+cv::Ptr<cv::dnn::Layer> create_resize(cv::dnn::LayerParams& params);
 
 }  // namespace keyfleet::vision

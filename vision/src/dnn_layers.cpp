@@ -656,7 +656,8 @@ DnnLayersScope::DnnLayersScope(DnnLayers layers) : lock_(scope_mutex()) {
       {layers.subpixel_deconvolution, {"Deconvolution", create_deconvolution}},
       {layers.inner_product, {"InnerProduct", create_inner_product}},
       {layers.vectorised_softmax, {"Softmax", create_softmax}},
-      {layers.global_average_pool, {"Pooling", create_pooling}}};
+      {layers.global_average_pool, {"Pooling", create_pooling}},
+      {layers.nearest_upsampling, {"Resize", create_resize}}};
   try {
     for (const auto& [use, layer] : chosen)
       if (use) {

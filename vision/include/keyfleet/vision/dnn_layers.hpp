@@ -22,6 +22,9 @@
 // - power, (shift + scale x)^power (what OpenCV's importer makes of PP-OCR's multiplications and
 //   additions by a constant, the learnable affine blocks after each activation): OpenCV 4.6
 //   computes it one element at a time; this one in SIMD where power is 1.
+// - nearest-neighbour Resize by powers of two (PP-OCR's FPN upsamplings): OpenCV 4.6 computes
+//   each element's source with a float product and a conversion; this one widens each input row
+//   once and copies it.
 // - inner product with constant weights (PP-OCR's recogniser's last MatMul) as the same matrix
 //   product, and softmax over the last axis with OpenCV's vectorised exp (dense_layers.hpp).
 // Each stand-in convolution takes the whole chain of activations OpenCV fuses into it (PP-OCR's
@@ -53,22 +56,24 @@ struct DnnLayers {
   bool vectorised_softmax = true;
   bool global_average_pool = true;  // each plane's mean in SIMD (squeeze-and-excitation blocks)
   bool vectorised_sigmoid = true;   // the logistic function with OpenCV's vectorised exp
+  bool nearest_upsampling = true;   // nearest Resize by powers of two: rows widened and copied
   // The 1x1 convolutions with 64 or more input and output channels in 8-bit integers
   // (pointwise_int8.hpp: weights per output channel, the input over its own range on every
   // call): about 1.8x the multiply-adds per cycle of float on AVX2; outputs move by about 1 % of
   // their spread. Off unless asked for.
   bool int8_pointwise = false;
   static DnnLayers opencv() {
-    return {false, false, false, false, false, false, false, false, false, false, false, false};
+    return {false, false, false, false, false, false, false,
+            false, false, false, false, false, false};
   }
   // All stand-ins in float: OpenCV's outputs to float rounding, on any CPU.
   static DnnLayers in_float() {
-    return {true, true, true, true, false, true, true, true, true, true, true, true};
+    return {true, true, true, true, false, true, true, true, true, true, true, true, true};
   }
   bool any() const {
     return vectorised_selu || depthwise || subpixel_deconvolution || pointwise || dense_3x3 ||
            vectorised_hard_swish || vectorised_power || inner_product || vectorised_softmax ||
-           global_average_pool || vectorised_sigmoid;
+           global_average_pool || vectorised_sigmoid || nearest_upsampling;
   }
 };
 
