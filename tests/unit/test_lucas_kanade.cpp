@@ -132,6 +132,36 @@ TEST(KeyframeTracker, LosesCornersThatLeaveTheImageAndFlatWindows) {
   }
 }
 
+// Corners on the image's edges and corners, guessed on them, just outside and far outside: the
+// AVX2 rows read 17 pixels from a window's left edge, which the pyramids' borders must hold (run
+// under ASan or valgrind this is the test that would see a read past them); each corner is lost
+// or tracked as OpenCV's tracker has it.
+TEST(KeyframeTracker, CornersAtTheEdgesAsOpenCvHasThem) {
+  SKIP_WITHOUT_AVX2();
+  const cv::Mat reference = texture(320, 240, 5);
+  const cv::Mat m = rotate_shift(0.5, {2.2f, 1.4f}, {160, 120});
+  cv::Mat frame;
+  cv::warpAffine(reference, frame, m, reference.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT_101);
+  std::vector<cv::Point2f> corners;
+  for (float x : {0.f, 0.4f, 7.f, 160.f, 312.f, 318.6f, 319.f})
+    for (float y : {0.f, 0.3f, 7.f, 120.f, 232.f, 238.7f, 239.f}) corners.emplace_back(x, y);
+  for (cv::Point2f guess : {cv::Point2f(0, 0), cv::Point2f(1.5f, 1.5f), cv::Point2f(-1.5f, -1.5f),
+                            cv::Point2f(9, 9), cv::Point2f(-9, -9), cv::Point2f(40, -40)}) {
+    KeyframeTracker vectorised(LucasKanadeParams{}, true), opencv(LucasKanadeParams{}, false);
+    const std::vector<int> ids = all_ids(corners.size());
+    const Tracked v = run(vectorised, reference, frame, corners, ids, guess);
+    const Tracked o = run(opencv, reference, frame, corners, ids, guess);
+    std::size_t same = 0;
+    for (std::size_t i = 0; i < corners.size(); ++i) {
+      same += v.status[i] == o.status[i];
+      if (v.status[i] && o.status[i]) {
+        EXPECT_LT(cv::norm(v.points[i] - o.points[i]), 0.05) << i;
+      }
+    }
+    EXPECT_GE(same + 1, corners.size()) << guess;
+  }
+}
+
 TEST(KeyframeTracker, TracksASubsetAsInTheWholeSet) {
   SKIP_WITHOUT_AVX2();
   const cv::Mat reference = texture(320, 240, 3);
