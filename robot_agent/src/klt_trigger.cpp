@@ -46,8 +46,8 @@ std::vector<cv::Point2f> spread_corners(const cv::Mat& whole, int max_points, in
 KltSlamTrigger::KltSlamTrigger(const KltTriggerParams& params)
     : params_(params),
       decision_(params.decision),
-      tracker_(LucasKanadeParams{params.window_px, params.pyramid_levels, params.iterations, 0.03},
-               params.vectorised_tracker) {}
+      tracker_(
+          LucasKanadeParams{params.window_px, params.pyramid_levels, params.iterations, 0.03}) {}
 
 void KltSlamTrigger::make_reference() {
   reference_points_ = spread_corners(grey_, params_.max_points, params_.cell_px,

@@ -201,12 +201,16 @@ bool KeyframeTracker::available() {
 #endif
 }
 
-void KeyframeTracker::set_reference(const cv::Mat& grey, const std::vector<cv::Point2f>& corners) {
-  CV_Assert(grey.type() == CV_8UC1);
+cv::Size KeyframeTracker::border() const {
   // The AVX2 rows read 17 pixels from a window's left edge, which may be the image's last
   // column: both pyramids then get a border that wide.
-  const int border = vectorised_ ? int(kLanes) + 1 : params_.window_px;
-  cv::buildOpticalFlowPyramid(grey, reference_, cv::Size(border, border), params_.levels - 1, true);
+  const int side = vectorised_ ? int(kLanes) + 1 : params_.window_px;
+  return {side, side};
+}
+
+void KeyframeTracker::set_reference(const cv::Mat& grey, const std::vector<cv::Point2f>& corners) {
+  CV_Assert(grey.type() == CV_8UC1);
+  cv::buildOpticalFlowPyramid(grey, reference_, border(), params_.levels - 1, true);
   corners_ = corners;
   if (vectorised_) make_windows(corners);
 }
@@ -234,12 +238,11 @@ void KeyframeTracker::make_windows(const std::vector<cv::Point2f>& corners) {
       std::int16_t* grey = windows_.data() + win.offset;
       std::int16_t* dx = grey + plane;
       std::int16_t* dy = dx + plane;
-      std::int64_t sums[3];
+      std::int64_t sums[3];  // dx dx, dx dy, dy dy
       reference_window(image, deriv, x0, y0, w, w, iw, grey, dx, dy, sums);
-      const std::int64_t s11 = sums[0], s12 = sums[1], s22 = sums[2];
-      win.a11 = float(s11) * kSumScale;
-      win.a12 = float(s12) * kSumScale;
-      win.a22 = float(s22) * kSumScale;
+      win.a11 = float(sums[0]) * kSumScale;
+      win.a12 = float(sums[1]) * kSumScale;
+      win.a22 = float(sums[2]) * kSumScale;
       const float det = win.a11 * win.a22 - win.a12 * win.a12;
       const float min_eigenvalue =
           (win.a22 + win.a11 -
@@ -259,19 +262,18 @@ void KeyframeTracker::track(const cv::Mat& grey, const std::vector<int>& ids,
                             std::vector<float>& error) {
   CV_Assert(grey.type() == CV_8UC1 && !reference_.empty());
   CV_Assert(tracked.size() == ids.size());
+  if (ids.empty()) {
+    status.clear();
+    error.clear();
+    return;
+  }
   const int w = params_.window_px;
-  const int border = vectorised_ ? int(kLanes) + 1 : w;
-  const int frame_top = cv::buildOpticalFlowPyramid(grey, frame_, cv::Size(border, border),
-                                                    params_.levels - 1, false);
+  const int frame_top =
+      cv::buildOpticalFlowPyramid(grey, frame_, border(), params_.levels - 1, false);
   const int max_level = std::min(frame_top, int(reference_.size() / 2) - 1);
   if (!vectorised_) {
     gathered_.resize(ids.size());
     for (std::size_t i = 0; i < ids.size(); ++i) gathered_[i] = corners_.at(std::size_t(ids[i]));
-    if (ids.empty()) {
-      status.clear();
-      error.clear();
-      return;
-    }
     cv::calcOpticalFlowPyrLK(reference_, frame_, gathered_, tracked, status, error, cv::Size(w, w),
                              max_level,
                              cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,

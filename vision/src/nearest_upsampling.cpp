@@ -24,8 +24,7 @@ void repeat_columns(const float* src, int n, int k, float* dst) {
     for (; x + kLanes <= n; x += kLanes) {
       cv::v_float32x4 v[8];
       v[0] = cv::v_load(src + x);
-      int have = 1;
-      for (int width = 1; width < k; width *= 2, have *= 2)  // each lane twice, again
+      for (int have = 1; have < k; have *= 2)  // each lane twice, again
         for (int i = have - 1; i >= 0; --i) {
           cv::v_float32x4 lo, hi;
           cv::v_zip(v[i], v[i], lo, hi);

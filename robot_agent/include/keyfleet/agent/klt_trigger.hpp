@@ -24,9 +24,6 @@ struct KltTriggerParams {
   double max_error = 30;     // mean absolute grey difference of a tracked window, at most
   int border_px = 8;         // corners detected and tracked this far inside the image only
   double ransac_px = 1.0;    // epipolar distance threshold, pixels of the resized image
-  // KeyframeTracker's AVX2 path where the CPU has it (lucas_kanade.hpp); false: OpenCV's
-  // calcOpticalFlowPyrLK (the same arithmetic; for comparisons).
-  bool vectorised_tracker = true;
 };
 
 // Emulates ORB-SLAM2's monocular Tracking::NeedNewKeyFrame (need_new_keyframe.hpp) as

@@ -51,6 +51,7 @@ class KeyframeTracker {
     bool inside = false;       // its window lies within the level's bordered image
     bool conditioned = false;  // and has texture enough (OpenCV's minimum eigenvalue test)
   };
+  cv::Size border() const;  // of both pyramids (buildOpticalFlowPyramid's winSize)
   void make_windows(const std::vector<cv::Point2f>& corners);
   void track_vectorised(int max_level, const std::vector<int>& ids,
                         std::vector<cv::Point2f>& tracked, std::vector<std::uint8_t>& status,
