@@ -61,6 +61,28 @@ const Keyframes& keyframes() {
   return k;
 }
 
+// Decoding a stored keyframe (the station does it twice: validating it, analysing it): arg 0 =
+// the station's JpegCodec (libjpeg-turbo into BGR), 1 = cv::imdecode as it decoded until
+// 2026-11-27. The same pixels (test JpegCodec.DecodesThePixelsOpenCvDecodes).
+void BM_DecodeKeyframe(benchmark::State& state) {
+  const JpegCodec codec(90);
+  const auto& jobs = keyframes().jobs;
+  std::size_t i = 0;
+  for (auto _ : state) {
+    const auto& bytes = jobs[i++ % jobs.size()].jpeg;
+    cv::Mat image =
+        state.range(0) == 0 ? codec.decode(bytes).image : cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+    benchmark::DoNotOptimize(image.data);
+  }
+}
+BENCHMARK(BM_DecodeKeyframe)
+    ->ArgNames({"codec0_imdecode1"})
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMicrosecond)
+    ->UseRealTime()
+    ->Iterations(400);
+
 // The station's defaults (configs/station.yaml: text engine ppocr, detector size auto, one
 // OpenCV thread, places on) with text and places on or off and the text engine chosen.
 constexpr const char* kEngines[] = {"ppocr", "tesseract"};

@@ -1,4 +1,4 @@
-// The agent's default semantic model, PP-OCRv4's text detector at 320x256 described as a text
+// The agent's default semantic model, PP-OCRv4's text detector at 288x224 described as a text
 // segmenter (scripts/fetch_ppocr.sh converts it from npm): it loads from the default config,
 // marks a drawn word where it was drawn, finds the text of generated views and of unseen real
 // photos above stated floors (in float products too, where the CPU would use bfloat16 ones). And
@@ -42,7 +42,7 @@ TEST(AgentSemanticModel, TheDefaultIsPpocrsDetectorDescribedAsAProbabilitySegmen
   KEYFLEET_REQUIRE_DEFAULT_SEMANTIC_MODEL();
   const auto segmenter = make_text_segmenter(SemanticConfig{});
   const SegmenterInfo& info = segmenter->info();
-  EXPECT_EQ(info.input_size, cv::Size(320, 256));
+  EXPECT_EQ(info.input_size, cv::Size(288, 224));
   EXPECT_EQ(info.output, SegmenterInfo::Output::kTextProbability);
   EXPECT_NEAR(info.std_bgr[0], 0.229, 1e-6);
   EXPECT_NEAR(info.boxes.unclip_ratio, 1.5f, 1e-6);
@@ -63,17 +63,18 @@ TEST(AgentSemanticModel, MarksADrawnWordWhereItWasDrawn) {
   cv::putText(frame, "HOTEL", {word.x + 10, word.y + 60}, cv::FONT_HERSHEY_DUPLEX, 2.6,
               cv::Scalar(20, 20, 20), 6);
   const cv::Mat mask = segmenter->segment({frame}).at(0);
-  ASSERT_EQ(mask.size(), cv::Size(320, 256));
-  const cv::Rect in_mask(word.x / 2, word.y * 256 / 480, word.width / 2, word.height * 256 / 480);
+  ASSERT_EQ(mask.size(), segmenter->info().input_size);
+  const cv::Rect in_mask(word.x * mask.cols / 640, word.y * mask.rows / 480,
+                         word.width * mask.cols / 640, word.height * mask.rows / 480);
   const int inside = cv::countNonZero(mask(in_mask));
   const int all = cv::countNonZero(mask);
   EXPECT_GT(inside, in_mask.area() / 2) << "the word's box is not marked";
   EXPECT_GT(inside, all * 8 / 10) << "text marked away from the word";
 }
 
-// Floors about 0.1 below the model's own figures on these views at 320x256 (recall 0.674,
-// precision 0.636, IoU 0.486, rank 0.75 when recorded): a regression below them fails. MiniNet
-// there: 0.63 / 0.32 / 0.27, rank 0.68.
+// Floors about 0.1 below the model's own figures on these views at 288x224 (recall 0.603,
+// precision 0.570, IoU 0.414, rank 0.75 when recorded; at 320x256 0.674 / 0.636 / 0.486, 0.75):
+// a regression below them fails. MiniNet there: 0.63 / 0.32 / 0.27, rank 0.68.
 // The default config (float products with the wide 1x1 layers in int8), all in float (OpenCV's
 // logits to float rounding), and in bfloat16 where the CPU has AVX512-BF16.
 std::vector<SemanticConfig> both_precisions() {
@@ -99,17 +100,17 @@ TEST(AgentSemanticModel, FindsTextPixelsOfGeneratedViewsAboveStatedFloors) {
     const SegmentationScores s = test::score_on_generated_views(*segmenter);
     SCOPED_TRACE(precision_name(config));
     EXPECT_EQ(s.images, test::kGeneratedViews);
-    EXPECT_GT(s.recall, 0.57) << "precision " << s.precision << ", IoU " << s.iou;
-    EXPECT_GT(s.precision, 0.53) << "recall " << s.recall << ", IoU " << s.iou;
-    EXPECT_GT(s.iou, 0.38) << "recall " << s.recall << ", precision " << s.precision;
+    EXPECT_GT(s.recall, 0.50) << "precision " << s.precision << ", IoU " << s.iou;
+    EXPECT_GT(s.precision, 0.47) << "recall " << s.recall << ", IoU " << s.iou;
+    EXPECT_GT(s.iou, 0.32) << "recall " << s.recall << ", precision " << s.precision;
     EXPECT_GT(s.frame_rank_correlation, 0.5);
   }
 }
 
 // Real photos no model here was trained or tuned on (ICDAR 2015 test_clean, the first 20), as
-// Table III scores them, at the agent's 320x256. Floors about 0.05 below its figures when
-// recorded (recall 0.276, precision 0.697, IoU 0.246, rank 0.49); the shipped MiniNet there:
-// 0.084 / 0.102 / 0.048.
+// Table III scores them, at the agent's 288x224. Floors about 0.05 below its figures when
+// recorded (recall 0.281, precision 0.618, IoU 0.240, rank 0.39; at 320x256 0.276 / 0.697 /
+// 0.246, 0.49); the shipped MiniNet there: 0.084 / 0.102 / 0.048.
 TEST(AgentSemanticModel, FindsTextPixelsOfUnseenRealPhotosAboveStatedFloors) {
   KEYFLEET_REQUIRE_DEFAULT_SEMANTIC_MODEL();
   KEYFLEET_REQUIRE_DATA("icdar2015/test_clean");
@@ -120,7 +121,7 @@ TEST(AgentSemanticModel, FindsTextPixelsOfUnseenRealPhotosAboveStatedFloors) {
     SCOPED_TRACE(precision_name(config));
     EXPECT_EQ(s.images, 20u);
     EXPECT_GT(s.recall, 0.22) << "precision " << s.precision << ", IoU " << s.iou;
-    EXPECT_GT(s.precision, 0.60) << "recall " << s.recall << ", IoU " << s.iou;
+    EXPECT_GT(s.precision, 0.56) << "recall " << s.recall << ", IoU " << s.iou;
     EXPECT_GT(s.iou, 0.19) << "recall " << s.recall << ", precision " << s.precision;
     // Frames rank as their text does (20 photos: a wide interval, so a low floor).
     EXPECT_GT(s.frame_rank_correlation, 0.2);

