@@ -3,6 +3,7 @@
 #include "keyfleet/common/clock.hpp"
 
 #include <algorithm>
+#include <ctime>
 #include <fstream>
 
 namespace keyfleet::agent {
@@ -49,6 +50,7 @@ bool AgentRunner::wait_for_station(const StopToken& stop) {
 
 void AgentRunner::stream(const StopToken& stop) {
   const auto start = Clock::now();
+  const std::clock_t cpu_start = std::clock();  // the process's, all threads
   const double fps = source_.fps();
   summary_ = StreamSummary{};
   summary_.fps = fps;
@@ -82,6 +84,7 @@ void AgentRunner::stream(const StopToken& stop) {
   }
   agent_.finish_stream(boot_time_ns());
   summary_.stream_s = std::chrono::duration<double>(Clock::now() - start).count();
+  summary_.stream_cpu_s = double(std::clock() - cpu_start) / CLOCKS_PER_SEC;
   logger_->info("stream ended after {} frames in {:.2f} s ({:.2f} s of flight), {} late", frames,
                 summary_.stream_s, summary_.flight_s(), summary_.late_frames);
 }
@@ -126,7 +129,7 @@ bool write_stream_summary(const std::string& path, const StreamSummary& summary,
   out << "{\"frames\": " << summary.frames << ", \"fps\": " << summary.fps
       << ", \"stream_s\": " << summary.stream_s << ", \"late_frames\": " << summary.late_frames
       << ", \"max_lag_ms\": " << summary.max_lag_ms << ", \"process_cpu_s\": " << process_cpu_s
-      << ", \"stages\": {";
+      << ", \"stream_cpu_s\": " << summary.stream_cpu_s << ", \"stages\": {";
   for (std::size_t i = 0; i < stages.size(); ++i)
     out << (i ? ", " : "") << "\"" << stages[i].stage
         << "\": {\"cpu_ms\": " << stages[i].cpu_ms_total << ", \"calls\": " << stages[i].calls

@@ -20,6 +20,7 @@ AgentStreamFigures agent(double stream_s, std::uint64_t late, double trigger_ms)
   a.late_frames = late;
   a.max_lag_ms = double(late) * 10;
   a.process_cpu_s = 3.0;  // 10 ms a frame
+  a.stream_cpu_s = 2.4;   // 8 ms a frame while streaming
   a.stages["trigger"] = {"trigger", trigger_ms * 300, 300};
   return a;
 }
@@ -39,6 +40,7 @@ TEST(FleetFigures, RealTimeFactorsCpuAndStagesFromHandMadeTimings) {
   EXPECT_EQ(r.late_frames, 30u);
   EXPECT_DOUBLE_EQ(r.max_lag_ms, 300);
   EXPECT_DOUBLE_EQ(r.agent_cpu_ms_per_frame, 10.0);
+  EXPECT_DOUBLE_EQ(r.agent_stream_cpu_ms_per_frame, 8.0);
   EXPECT_DOUBLE_EQ(r.stage_ms_per_frame.at("trigger"), 2.0);
   EXPECT_DOUBLE_EQ(r.station_cpu_ms_per_frame, 2.0);
   EXPECT_DOUBLE_EQ(r.station_text_ms_per_keyframe, 200);
@@ -64,6 +66,7 @@ TEST(FleetFigures, LargestRealTimeFleetStopsAtTheFirstThatFallsBehind) {
   const std::string table = format_fleet_table(runs, 2);
   EXPECT_NE(table.find("largest N at real time: none"), std::string::npos) << table;
   EXPECT_NE(table.find("trigger"), std::string::npos) << table;
+  EXPECT_NE(table.find("strm ms/f"), std::string::npos) << table;
 }
 
 TEST(StreamSummary, ReadsWhatTheAgentWritesAndNamesABrokenFile) {
@@ -75,6 +78,7 @@ TEST(StreamSummary, ReadsWhatTheAgentWritesAndNamesABrokenFile) {
   summary.stream_s = 20.5;
   summary.late_frames = 3;
   summary.max_lag_ms = 45.5;
+  summary.stream_cpu_s = 6.5;
   ASSERT_TRUE(agent::write_stream_summary(path, summary, {{"trigger", 900, 600}}, 7.25));
   const auto f = read_stream_summary(path, "drone_3");
   EXPECT_EQ(f.robot_id, "drone_3");
@@ -82,6 +86,7 @@ TEST(StreamSummary, ReadsWhatTheAgentWritesAndNamesABrokenFile) {
   EXPECT_DOUBLE_EQ(f.stream_s, 20.5);
   EXPECT_EQ(f.late_frames, 3u);
   EXPECT_DOUBLE_EQ(f.process_cpu_s, 7.25);
+  EXPECT_DOUBLE_EQ(f.stream_cpu_s, 6.5);
   EXPECT_DOUBLE_EQ(f.stages.at("trigger").cpu_ms_total, 900);
   EXPECT_EQ(f.stages.at("trigger").calls, 600u);
   std::ofstream(path) << "{\"frames\": 1}";

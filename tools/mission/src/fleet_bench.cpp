@@ -69,6 +69,7 @@ AgentStreamFigures read_stream_summary(const std::string& path, const std::strin
     f.late_frames = j.at("late_frames").get<std::uint64_t>();
     f.max_lag_ms = j.at("max_lag_ms").get<double>();
     f.process_cpu_s = j.at("process_cpu_s").get<double>();
+    f.stream_cpu_s = j.value("stream_cpu_s", 0.0);
     for (const auto& [stage, t] : j.at("stages").items())
       f.stages[stage] = {stage, t.at("cpu_ms").get<double>(), t.at("calls").get<std::uint64_t>()};
     return f;
@@ -85,7 +86,7 @@ FleetRunFigures fleet_figures(int drones, bool realtime,
   r.drones = drones;
   r.realtime = realtime;
   r.wall_s = wall_s;
-  double agent_cpu_s = 0;
+  double agent_cpu_s = 0, stream_cpu_s = 0;
   std::map<std::string, double> stage_ms;
   r.rtf_min = agents.empty() ? 0 : 1e9;
   for (const auto& a : agents) {
@@ -96,10 +97,12 @@ FleetRunFigures fleet_figures(int drones, bool realtime,
     r.late_frames += a.late_frames;
     r.max_lag_ms = std::max(r.max_lag_ms, a.max_lag_ms);
     agent_cpu_s += a.process_cpu_s;
+    stream_cpu_s += a.stream_cpu_s;
     for (const auto& [name, t] : a.stages) stage_ms[name] += t.cpu_ms_total;
   }
   const double frames = double(r.frames);
   r.agent_cpu_ms_per_frame = per(1e3 * agent_cpu_s, frames);
+  r.agent_stream_cpu_ms_per_frame = per(1e3 * stream_cpu_s, frames);
   for (const auto& [name, ms] : stage_ms) r.stage_ms_per_frame[name] = per(ms, frames);
   r.station_cpu_ms_per_frame = per(1e3 * station.cpu_s, frames);
   r.station_keyframes = station.keyframes;
@@ -128,8 +131,9 @@ std::optional<int> largest_realtime(const std::vector<FleetRunFigures>& runs) {
 std::string format_fleet_table(const std::vector<FleetRunFigures>& runs, unsigned cores) {
   std::string out;
   char line[512];
-  std::snprintf(line, sizeof line, "%-9s %3s %7s %6s %6s %7s %7s %8s %9s %9s %8s %9s %9s %9s %s\n",
-                "mode", "N", "wall s", "RTF", "RTFmin", "frames", "late", "lag ms", "agent ms/f",
+  std::snprintf(line, sizeof line,
+                "%-9s %3s %7s %6s %6s %7s %7s %8s %9s %9s %9s %8s %9s %9s %9s %s\n", "mode", "N",
+                "wall s", "RTF", "RTFmin", "frames", "late", "lag ms", "agent ms/f", "strm ms/f",
                 "stn ms/f", "stn kf", "OCR ms/kf", "OCR cpu", "fps/core", "real time");
   out += line;
   std::set<std::string> stages;
@@ -137,13 +141,13 @@ std::string format_fleet_table(const std::vector<FleetRunFigures>& runs, unsigne
     for (const auto& [name, ms] : r.stage_ms_per_frame) stages.insert(name);
     std::snprintf(
         line, sizeof line,
-        "%-9s %3d %7.1f %6.2f %6.2f %7llu %7llu %8.0f %9.2f %9.2f %8llu %9.0f %9.0f %9.1f "
-        "%s\n",
+        "%-9s %3d %7.1f %6.2f %6.2f %7llu %7llu %8.0f %9.2f %9.2f %9.2f %8llu %9.0f %9.0f "
+        "%9.1f %s\n",
         r.realtime ? "realtime" : "fast", r.drones, r.wall_s, r.rtf_mean, r.rtf_min,
         static_cast<unsigned long long>(r.frames), static_cast<unsigned long long>(r.late_frames),
-        r.max_lag_ms, r.agent_cpu_ms_per_frame, r.station_cpu_ms_per_frame,
-        static_cast<unsigned long long>(r.station_keyframes), r.station_text_ms_per_keyframe,
-        r.station_text_cpu_ms_per_keyframe, r.frames_per_s_per_core,
+        r.max_lag_ms, r.agent_cpu_ms_per_frame, r.agent_stream_cpu_ms_per_frame,
+        r.station_cpu_ms_per_frame, static_cast<unsigned long long>(r.station_keyframes),
+        r.station_text_ms_per_keyframe, r.station_text_cpu_ms_per_keyframe, r.frames_per_s_per_core,
         !r.realtime ? "-" : (r.keeps_realtime && r.failures.empty() ? "yes" : "NO"));
     out += line;
   }

@@ -22,6 +22,10 @@ struct StreamSummary {
   double stream_s = 0;  // wall time from the first frame to the end of the last one
   std::uint64_t late_frames = 0;
   double max_lag_ms = 0;  // the most a frame was taken after its due time
+  // The process's CPU (all threads: the pipeline, DDS, the outbox) over the same span: without
+  // the start (model loading, the DDS-Security handshake) and the drain, which a long flight
+  // amortises away.
+  double stream_cpu_s = 0;
   double flight_s() const { return fps > 0 ? double(frames) / fps : 0; }
 };
 

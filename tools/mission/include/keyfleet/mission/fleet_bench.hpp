@@ -40,6 +40,7 @@ struct AgentStreamFigures {
   std::uint64_t late_frames = 0;
   double max_lag_ms = 0;
   double process_cpu_s = 0;
+  double stream_cpu_s = 0;  // the process's CPU while streaming (0 in files from before it)
   std::map<std::string, StageTime> stages;
 };
 // Throws std::runtime_error naming the file when it is missing or malformed.
@@ -61,6 +62,7 @@ struct FleetRunFigures {
   std::uint64_t frames = 0, late_frames = 0;
   double max_lag_ms = 0;
   double agent_cpu_ms_per_frame = 0;                 // agents' processes, all threads
+  double agent_stream_cpu_ms_per_frame = 0;          // the same from first frame to last
   std::map<std::string, double> stage_ms_per_frame;  // agents' stages, calling thread
   double station_cpu_ms_per_frame = 0;
   std::uint64_t station_keyframes = 0;
