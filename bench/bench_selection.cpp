@@ -114,7 +114,7 @@ struct AfterScoring final : Scoring {
     images.prepare(bgr, kQuality.size, kQuality.sharpness_width);
   }
   double blur() override { return agent::energy_of_laplacian(images.grey); }
-  double brightness() override { return agent::brightness_score(images.small, images.lab); }
+  double brightness() override { return agent::brightness_score(images.small); }
   double sharpness() override {
     return agent::kumar_sharpness(images.work_grey, kSharpness, images.sharpness);
   }

@@ -38,13 +38,76 @@ double energy_of_laplacian(const cv::Mat& grey) {
   return energy / 36;
 }
 
-double brightness_score(const cv::Mat& bgr, cv::Mat& lab) {
+namespace {
+
+// OpenCV's 8-bit BGR -> CIELAB, its L alone, in its fixed-point arithmetic: each channel through
+// the sRGB gamma to a linear value x 255 x 8 (rounded), Y as their sum with 12-bit weights
+// (rounded), f(Y) (the cube root, or its linear toe below 0.008856) in 15-bit fixed point from a
+// table of 3,072 entries, and L = 116 f(Y) - 16 scaled to 0..255 and rounded. cv::cvtColor does
+// the same for a and b too, at about 3x the work and through more tables (which fall out of cache
+// between an agent's stages); the unit test checks every 8-bit colour against it.
+struct LightnessTables {
+  static constexpr int kGammaShift = 3, kLabShift = 12, kLabShift2 = 15;
+  static constexpr int kYEntries = 256 * 3 / 2 * (1 << kGammaShift);
+  std::array<std::uint16_t, 256> linear{};          // sRGB level -> linear x 255 x 8
+  std::array<std::uint8_t, kYEntries> lightness{};  // Y index -> L (0..255)
+  int weight_b = 0, weight_g = 0, weight_r = 0;     // Y's weights (D65 white: Y_n = 1) x 4096
+
+  LightnessTables() {
+    for (int i = 0; i < 256; ++i) {
+      const double v = i / 255.0;
+      const double linear_v = v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
+      linear[std::size_t(i)] = std::uint16_t(cvRound(255.0 * (1 << kGammaShift) * linear_v));
+    }
+    const int scale = (116 * 255 + 50) / 100;
+    const int shift = -((16 * 255 * (1 << kLabShift2) + 50) / 100);
+    for (int i = 0; i < kYEntries; ++i) {
+      const double y = i / (255.0 * (1 << kGammaShift));
+      const double f = y < 0.008856 ? y * 7.787 + 16.0 / 116.0 : std::cbrt(y);
+      const int fy = std::min(65535, cvRound((1 << kLabShift2) * f));
+      const int l = (scale * fy + shift + (1 << (kLabShift2 - 1))) >> kLabShift2;
+      lightness[std::size_t(i)] = std::uint8_t(std::clamp(l, 0, 255));
+    }
+    weight_r = cvRound((1 << kLabShift) * 0.212671);
+    weight_g = cvRound((1 << kLabShift) * 0.715160);
+    weight_b = cvRound((1 << kLabShift) * 0.072169);
+  }
+
+  std::uint8_t of(std::uint8_t b, std::uint8_t g, std::uint8_t r) const {
+    const int y = (linear[b] * weight_b + linear[g] * weight_g + linear[r] * weight_r +
+                   (1 << (kLabShift - 1))) >>
+                  kLabShift;
+    return lightness[std::size_t(y)];
+  }
+};
+
+const LightnessTables& lightness_tables() {
+  static const LightnessTables tables;
+  return tables;
+}
+
+}  // namespace
+
+std::uint8_t lab_lightness(std::uint8_t b, std::uint8_t g, std::uint8_t r) {
+  return lightness_tables().of(b, g, r);
+}
+
+double brightness_score(const cv::Mat& bgr) {
   CV_Assert(bgr.depth() == CV_8U);
-  cv::cvtColor(bgr, lab, cv::COLOR_BGR2Lab);  // 8-bit: L scaled to 0..255
   std::array<std::int64_t, 256> histogram{};
-  for (int y = 0; y < lab.rows; ++y) {
-    const std::uint8_t* p = lab.ptr(y);
-    for (int x = 0; x < lab.cols; ++x) ++histogram[p[3 * x]];
+  if (bgr.channels() == 3) {
+    const LightnessTables& tables = lightness_tables();
+    for (int y = 0; y < bgr.rows; ++y) {
+      const std::uint8_t* p = bgr.ptr(y);
+      for (int x = 0; x < bgr.cols; ++x, p += 3) ++histogram[tables.of(p[0], p[1], p[2])];
+    }
+  } else {  // BGRA and the like: OpenCV's conversion (the selector's images are BGR)
+    cv::Mat lab;
+    cv::cvtColor(bgr, lab, cv::COLOR_BGR2Lab);
+    for (int y = 0; y < lab.rows; ++y) {
+      const std::uint8_t* p = lab.ptr(y);
+      for (int x = 0; x < lab.cols; ++x) ++histogram[p[3 * x]];
+    }
   }
   double sum = 0;
   for (int v = 0; v < 256; ++v) {
@@ -52,11 +115,6 @@ double brightness_score(const cv::Mat& bgr, cv::Mat& lab) {
     sum += double(histogram[std::size_t(v)]) * centred * centred;
   }
   return 1.0 / (1.0 + sum);  // +1: a flat mid-grey frame stays finite
-}
-
-double brightness_score(const cv::Mat& bgr) {
-  cv::Mat lab;
-  return brightness_score(bgr, lab);
 }
 
 namespace {

@@ -42,7 +42,7 @@ HierarchicalSelector::Scored HierarchicalSelector::score(const Frame& frame) {
   }
   {
     auto scope = clock_->measure("brightness");
-    s.brightness = brightness_score(images_.small, images_.lab);
+    s.brightness = brightness_score(images_.small);
   }
   {
     auto scope = clock_->measure("sharpness");

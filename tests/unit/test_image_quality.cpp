@@ -325,6 +325,32 @@ TEST(BrightnessScore, EqualsTheOpenCvFormulation) {
   }
 }
 
+// Every 8-bit colour: lab_lightness gives cv::cvtColor's L to the level (a table built
+// differently, a weight rounded the other way or another OpenCV's arithmetic fails here).
+TEST(BrightnessScore, LightnessIsOpenCvsOnEveryColour) {
+  cv::Mat all(4096, 4096, CV_8UC3);
+  for (int i = 0; i < 4096 * 4096; ++i) {
+    std::uint8_t* p = all.data + 3 * std::size_t(i);
+    p[0] = std::uint8_t(i), p[1] = std::uint8_t(i >> 8), p[2] = std::uint8_t(i >> 16);
+  }
+  cv::Mat lab;
+  cv::cvtColor(all, lab, cv::COLOR_BGR2Lab);
+  int differ = 0;
+  for (int i = 0; i < 4096 * 4096; ++i) {
+    const std::uint8_t* p = all.data + 3 * std::size_t(i);
+    if (lab_lightness(p[0], p[1], p[2]) != lab.data[3 * std::size_t(i)] && ++differ <= 3)
+      ADD_FAILURE() << "BGR " << int(p[0]) << " " << int(p[1]) << " " << int(p[2]) << ": "
+                    << int(lab_lightness(p[0], p[1], p[2])) << " against OpenCV's "
+                    << int(lab.data[3 * std::size_t(i)]);
+  }
+  EXPECT_EQ(differ, 0);
+  // A BGRA image takes OpenCV's conversion and scores the same as its BGR.
+  const cv::Mat bgr = make_scene(64, 48);
+  cv::Mat bgra;
+  cv::cvtColor(bgr, bgra, cv::COLOR_BGR2BGRA);
+  EXPECT_EQ(brightness_score(bgra), brightness_score(bgr));
+}
+
 // The area resize the selector uses agrees with OpenCV's INTER_AREA to within one grey level
 // (a float sum rounded differently), on 3- and 1-channel images, integer and other factors.
 TEST(AreaResizer, AgreesWithOpenCvInterArea) {

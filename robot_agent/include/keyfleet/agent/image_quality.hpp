@@ -16,9 +16,12 @@ double energy_of_laplacian(const cv::Mat& grey);
 
 // 1 / (1 + sum((L - 50)^2)) over the CIELAB lightness L in [0, 100] of an 8-bit BGR image
 // (OpenCV's 8-bit L, 255 steps): a frame whose lightness sits around the middle scores high,
-// over- and under-exposed ones low. `lab` is a buffer for the conversion.
-double brightness_score(const cv::Mat& bgr, cv::Mat& lab);
+// over- and under-exposed ones low. L is computed alone (lab_lightness), the same levels.
 double brightness_score(const cv::Mat& bgr);
+
+// OpenCV's 8-bit CIELAB L (0..255) of one BGR pixel, cv::cvtColor(COLOR_BGR2Lab)'s first channel
+// to the level, without its a and b.
+std::uint8_t lab_lightness(std::uint8_t b, std::uint8_t g, std::uint8_t r);
 
 struct SharpnessParams {
   double edge_contrast = 180;  // summed first differences over 3x3 (mean 20 grey levels)
@@ -83,7 +86,7 @@ struct QualityImages {
   cv::Mat small;      // size x size, area-resized from `work`: brightness
   cv::Mat grey;       // its grey copy: blur
   AreaResizer to_width, to_size;
-  cv::Mat resized, lab;
+  cv::Mat resized;
   SharpnessScratch sharpness;
 
   // Fills work, work_grey, small and grey from a BGR frame (never upscales to the width).
