@@ -93,21 +93,14 @@ std::uint8_t lab_lightness(std::uint8_t b, std::uint8_t g, std::uint8_t r) {
 }
 
 double brightness_score(const cv::Mat& bgr) {
-  CV_Assert(bgr.depth() == CV_8U);
+  // BGR or BGRA (the fourth channel ignored, as cv::cvtColor does).
+  CV_Assert(bgr.depth() == CV_8U && (bgr.channels() == 3 || bgr.channels() == 4));
+  const LightnessTables& tables = lightness_tables();
+  const int step = bgr.channels();
   std::array<std::int64_t, 256> histogram{};
-  if (bgr.channels() == 3) {
-    const LightnessTables& tables = lightness_tables();
-    for (int y = 0; y < bgr.rows; ++y) {
-      const std::uint8_t* p = bgr.ptr(y);
-      for (int x = 0; x < bgr.cols; ++x, p += 3) ++histogram[tables.of(p[0], p[1], p[2])];
-    }
-  } else {  // BGRA and the like: OpenCV's conversion (the selector's images are BGR)
-    cv::Mat lab;
-    cv::cvtColor(bgr, lab, cv::COLOR_BGR2Lab);
-    for (int y = 0; y < lab.rows; ++y) {
-      const std::uint8_t* p = lab.ptr(y);
-      for (int x = 0; x < lab.cols; ++x) ++histogram[p[3 * x]];
-    }
+  for (int y = 0; y < bgr.rows; ++y) {
+    const std::uint8_t* p = bgr.ptr(y);
+    for (int x = 0; x < bgr.cols; ++x, p += step) ++histogram[tables.of(p[0], p[1], p[2])];
   }
   double sum = 0;
   for (int v = 0; v < 256; ++v) {

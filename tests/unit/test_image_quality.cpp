@@ -344,7 +344,7 @@ TEST(BrightnessScore, LightnessIsOpenCvsOnEveryColour) {
                     << int(lab.data[3 * std::size_t(i)]);
   }
   EXPECT_EQ(differ, 0);
-  // A BGRA image takes OpenCV's conversion and scores the same as its BGR.
+  // A BGRA image scores the same as its BGR (the fourth channel ignored).
   const cv::Mat bgr = make_scene(64, 48);
   cv::Mat bgra;
   cv::cvtColor(bgr, bgra, cv::COLOR_BGR2BGRA);
