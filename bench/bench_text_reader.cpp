@@ -215,11 +215,13 @@ struct RecognizerCase {
   std::string model;
 };
 
-std::optional<RecognizerCase> recognizer_case(benchmark::State& state, int width,
-                                              bool int8 = false) {
+// `latin`: the station's files, the classifier cut to the Latin classes (ppocr_latin_only).
+std::optional<RecognizerCase> recognizer_case(benchmark::State& state, int width, bool int8 = false,
+                                              bool latin = false) {
   std::string why;
-  const auto model = ppocr_file("ppocr_rec_w" + std::to_string(width) + ".onnx", why);
-  const auto keys = ppocr_file("ppocr_keys_v1.txt", why);
+  const auto model = ppocr_file(
+      (latin ? "ppocr_rec_latin_w" : "ppocr_rec_w") + std::to_string(width) + ".onnx", why);
+  const auto keys = ppocr_file(latin ? "ppocr_keys_latin.txt" : "ppocr_keys_v1.txt", why);
   if (!model || !keys) {
     state.SkipWithError(why.c_str());
     return std::nullopt;
@@ -242,9 +244,10 @@ std::optional<RecognizerCase> recognizer_case(benchmark::State& state, int width
   return c;
 }
 
-// arg 0 = the network's input width (160, 320, 640), arg 1 = OpenCV threads.
+// arg 0 = the network's input width (160, 320, 640), arg 1 = OpenCV threads, arg 2 = int8 1x1
+// convolutions, arg 3 = the Latin files (the station's default) instead of the whole list.
 void BM_PpocrRecognize(benchmark::State& state) {
-  auto c = recognizer_case(state, int(state.range(0)), state.range(2) != 0);
+  auto c = recognizer_case(state, int(state.range(0)), state.range(2) != 0, state.range(3) != 0);
   if (!c) return;
   cv::setNumThreads(int(state.range(1)));
   std::size_t words = 0;
@@ -321,8 +324,8 @@ BENCHMARK(BM_PpocrDbPostprocess)
     ->Apply(timed)
     ->Iterations(20);
 BENCHMARK(BM_PpocrRecognize)
-    ->ArgNames({"width", "threads", "int8"})
-    ->ArgsProduct({{160, 320, 640}, {1, 2}, {0, 1}})
+    ->ArgNames({"width", "threads", "int8", "latin"})
+    ->ArgsProduct({{160, 320, 640}, {1, 2}, {0, 1}, {0, 1}})
     ->Apply(timed)
     ->Iterations(10);
 BENCHMARK(BM_PpocrRecognizerOverhead)

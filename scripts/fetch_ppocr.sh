@@ -19,7 +19,8 @@ stamp="$out_dir/.fetched"
 outputs=(ppocr_det_640x480.onnx ppocr_det_1280x736.onnx ppocr_rec_w160.onnx ppocr_rec_w320.onnx
          ppocr_rec_w640.onnx ppocr_keys_v1.txt ppocr_meta.json ppocr_det_320x256.onnx
          ppocr_det_320x256.json ppocr_det_288x224.onnx ppocr_det_288x224.json
-         ppocr_det_512x256.onnx ppocr_det_512x256.json)
+         ppocr_det_512x256.onnx ppocr_det_512x256.json ppocr_rec_latin_w160.onnx
+         ppocr_rec_latin_w320.onnx ppocr_rec_latin_w640.onnx ppocr_keys_latin.txt)
 
 warn() {
   echo "fetch_ppocr: WARNING: $*; the ppocr text engine (the station's default) and the" \

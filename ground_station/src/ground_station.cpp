@@ -40,7 +40,8 @@ KeyframeAck GroundStation::handle(const ReceivedKeyframe& received, std::int64_t
   if (auto refused = refuse_robot(received)) return *refused;
   const Keyframe& k = received.keyframe;
   KeyframeAck ack{k.robot_id, k.sequence_number, AckStatus::kStored, {}};
-  auto problem = find_keyframe_problem(k, limits_, codec_);
+  cv::Mat decoded;
+  auto problem = find_keyframe_problem(k, limits_, codec_, &decoded);
   if (!problem && !received.sender.empty() && received.sender != k.robot_id)
     problem = "robot id '" + k.robot_id + "' is not its writer's, '" +
               printable_text(received.sender) + "'";
@@ -70,11 +71,11 @@ KeyframeAck GroundStation::handle(const ReceivedKeyframe& received, std::int64_t
           "keyframe {} from {}: text regions {} (logged once per robot; the keyframe is kept)",
           k.sequence_number, k.robot_id, review.summary());
   }
-  return store_checked(fixed ? *fixed : k, received.serialized_bytes, now_ns);
+  return store_checked(fixed ? *fixed : k, decoded, received.serialized_bytes, now_ns);
 }
 
-KeyframeAck GroundStation::store_checked(const Keyframe& k, std::uint64_t serialized_bytes,
-                                         std::int64_t now_ns) {
+KeyframeAck GroundStation::store_checked(const Keyframe& k, const cv::Mat& decoded,
+                                         std::uint64_t serialized_bytes, std::int64_t now_ns) {
   KeyframeAck ack{k.robot_id, k.sequence_number, AckStatus::kStored, {}};
   const StoreOutcome outcome = store_.store(k, serialized_bytes, now_ns);
   if (outcome == StoreOutcome::kConflict) {
@@ -96,7 +97,7 @@ KeyframeAck GroundStation::store_checked(const Keyframe& k, std::uint64_t serial
     return ack;
   }
   // Stored in the database: acknowledged whatever happens to the mission log's line about it.
-  if (on_stored_) on_stored_(k);
+  if (on_stored_) on_stored_(k, decoded);
   in_mission_log([&] { log_.keyframe(k, serialized_bytes, now_ns); });
   logger_->debug("stored keyframe {} from {} ({} bytes)", k.sequence_number, k.robot_id,
                  serialized_bytes);

@@ -38,13 +38,17 @@ AnalysisResult KeyframeAnalyzer::analyse(const AnalysisJob& job) {
   AnalysisResult result;
   result.key = job.key;
   result.capture_time_ns = job.capture_time_ns;
-  const DecodeResult decoded = codec_.decode(job.jpeg);
-  if (!decoded.ok()) {
-    result.status = AnalysisStatus::kFailed;
-    result.detail = "cannot decode the stored image: " + decoded.error;
-    return result;
+  // The pixels the station's check decoded, else (a keyframe restored or deferred) the JPEG's.
+  DecodeResult decoded;
+  if (job.image.empty()) {
+    decoded = codec_.decode(job.jpeg);
+    if (!decoded.ok()) {
+      result.status = AnalysisStatus::kFailed;
+      result.detail = "cannot decode the stored image: " + decoded.error;
+      return result;
+    }
   }
-  const cv::Mat& image = decoded.image;
+  const cv::Mat& image = job.image.empty() ? decoded.image : job.image;
   if (places_) {
     const auto start = std::chrono::steady_clock::now();
     cv::Mat grey;

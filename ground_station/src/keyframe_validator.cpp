@@ -47,7 +47,7 @@ TextRegionReview review_text_regions(const std::vector<TextRegion>& regions, std
 }
 
 std::optional<std::string> find_keyframe_problem(const Keyframe& k, const StationLimits& limits,
-                                                 const ImageCodec& codec) {
+                                                 const ImageCodec& codec, cv::Mat* decoded_out) {
   if (!is_valid_robot_id(k.robot_id))
     return "robot id '" + printable_text(k.robot_id) + "' does not match [A-Za-z0-9_-]{1,32}";
   if (k.encoding != codec.encoding())
@@ -75,6 +75,7 @@ std::optional<std::string> find_keyframe_problem(const Keyframe& k, const Statio
            size_text(static_cast<std::uint32_t>(decoded.image.cols),
                      static_cast<std::uint32_t>(decoded.image.rows)) +
            " differs from the claimed " + size_text(k.width, k.height);
+  if (decoded_out) *decoded_out = decoded.image;
   return std::nullopt;
 }
 

@@ -78,9 +78,9 @@ std::size_t StationAnalysis::skip_abandoned(const AnalysisAttempts& attempts, in
   return abandoned.size();
 }
 
-void StationAnalysis::on_stored(const Keyframe& k) {
+void StationAnalysis::on_stored(const Keyframe& k, const cv::Mat& decoded) {
   map_.add_keyframe(node_of(k.robot_id, k.sequence_number, k.capture_time_ns, k.camera_pose));
-  AnalysisJob job = job_for(k);
+  AnalysisJob job = job_for(k, decoded);
   in_flight_.insert(job.key);
   pool_.submit(std::move(job));
 }

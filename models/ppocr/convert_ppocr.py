@@ -9,6 +9,9 @@ reader, ground_station/text/src/ppocr_*.cpp). scripts/fetch_ppocr.sh runs it:
 Writes  models/ppocr_det_<W>x<H>.onnx   one detector per fixed input size
         models/ppocr_rec_w<W>.onnx      one recogniser per fixed input width
         models/ppocr_keys_v1.txt        the character list (class i+1 = line i)
+        models/ppocr_rec_latin_w<W>.onnx the recogniser with its output cut to the Latin
+                                        classes (the station's default, ppocr_latin_only)
+        models/ppocr_keys_latin.txt     their character list
         models/ppocr_meta.json          sizes, normalisation, thresholds, provenance
         models/ppocr_det_<W>x<H>.json   for --segmenter-sizes: the detector described as a
                                         keyfleet text segmenter (the robot agent's semantic
@@ -44,6 +47,7 @@ except ImportError:  # pragma: no cover - depends on the machine
 DET_FILE = "ch_PP-OCRv4_det_infer.onnx"
 REC_FILE = "ch_PP-OCRv4_rec_infer.onnx"
 KEYS_FILE = "ppocr_keys_v1.txt"
+LATIN_KEYS_FILE = "ppocr_keys_latin.txt"
 REC_HEIGHT = 48
 # PaddleOCR's DB post-processing defaults (the station's reader and the segmenter description).
 DB_SETTINGS = {"binary_threshold": 0.3, "box_threshold": 0.6, "unclip_ratio": 1.5, "min_size": 3}
@@ -575,7 +579,58 @@ def matmul_add_to_gemm(model):
     return count
 
 
-def convert_recognizer(src, dst, width):
+def read_keys(path):
+    with open(path, encoding="utf-8") as f:
+        return f.read().rstrip("\n").split("\n")
+
+
+def is_latin_class(text):
+    """The classes a Latin-script street needs: printable ASCII (the space included), the
+    accented Latin letters U+00C0..U+024F, pound, euro and degree; as ppocr::latin_classes in
+    ground_station/text/src/ppocr_recognizer.cpp, which the station applies to what it loads
+    (and a unit test checks the two agree on PP-OCRv4's list)."""
+    b = text.encode("utf-8")
+    if len(b) == 1 and 0x20 <= b[0] < 0x7F:
+        return True
+    if len(b) == 2 and 0xC3 <= b[0] <= 0xC9:
+        return True
+    return text in ("\u00a3", "\u20ac", "\u00b0")
+
+
+def latin_class_indices(keys):
+    """Classes kept in the Latin recogniser: the CTC blank (0), the Latin keys, and both
+    spaces (the ideographic one is never emitted, but its probability marks word breaks)."""
+    classes = [""] + keys + [" "]
+    return [c for c, text in enumerate(classes)
+            if c == 0 or c == len(classes) - 1 or text == "\u3000" or is_latin_class(text)]
+
+
+def keep_output_classes(model, keep):
+    """Cut the last Gemm (the classifier, after matmul_add_to_gemm) to the classes `keep`:
+    its rows and bias, the Reshape after it and the graph's output. The Softmax after it then
+    normalises over the kept classes only: their order (the arg-max) is unchanged, each
+    probability is the full model's divided by the kept classes' share of it."""
+    graph = model.graph
+    gemms = [n for n in graph.node if n.op_type == "Gemm"]
+    if not gemms:
+        raise RuntimeError("recogniser: no Gemm classifier to cut")
+    gemm = gemms[-1]
+    w, b = get_const(graph, gemm.input[1]), get_const(graph, gemm.input[2])
+    if w is None or b is None or w.shape[0] != b.shape[0] or max(keep) >= w.shape[0]:
+        raise RuntimeError("recogniser: the classifier %s is not [classes, C] with a bias" % gemm.name)
+    for name, value in ((gemm.input[1], w[keep]), (gemm.input[2], b[keep])):
+        set_const(graph, name, np.ascontiguousarray(value).astype(np.float32))
+    (reshape,) = consumers(graph, gemm.output[0])
+    shape = get_const(graph, reshape.input[1]).copy()
+    shape[-1] = len(keep)
+    set_const(graph, reshape.input[1], shape)
+    for out in graph.output:
+        out.type.tensor_type.shape.dim[-1].dim_value = len(keep)
+    del graph.value_info[:]  # inferred again from the fixed input
+    return w.shape[0] - len(keep)
+
+
+def convert_recognizer(src, dst, width, keep_classes=None):
     model = onnx.load(src)
     constants_to_initializers(model)
     set_fixed_io_shape(model, [1, 3, REC_HEIGHT, width])
@@ -584,6 +639,8 @@ def convert_recognizer(src, dst, width):
         "layernorm_affines_folded": fold_layernorm_affine(model),
         "matmul_add_to_gemm": matmul_add_to_gemm(model),
     }
+    if keep_classes is not None:
+        stats["classes_cut"] = keep_output_classes(model, keep_classes)
     stats["affines_folded"] = fold_output_affines(model)
     remove_dead_nodes(model)
     model = shape_inference.infer_shapes(model)
@@ -682,12 +739,16 @@ def main():
         with open(os.path.join(args.out, "ppocr_det_%dx%d.json" % (w, h)), "w", encoding="utf-8") as f:
             json.dump(segmenter_description(w, h, flops, pkg), f, indent=1)
         print("wrote ppocr_det_%dx%d.json (%.3f GFLOPs at 512x256)" % (w, h, flops / 1e9))
+    keys = read_keys(os.path.join(assets, KEYS_FILE))
+    latin = latin_class_indices(keys)
     for w in args.rec_widths:
-        name = "ppocr_rec_w%d.onnx" % w
-        stats = convert_recognizer(rec_src, os.path.join(args.out, name), w)
-        outputs[name] = stats
-        print("wrote %s  %s" % (name, stats))
+        for name, keep in (("ppocr_rec_w%d.onnx" % w, None), ("ppocr_rec_latin_w%d.onnx" % w, latin)):
+            stats = convert_recognizer(rec_src, os.path.join(args.out, name), w, keep)
+            outputs[name] = stats
+            print("wrote %s  %s" % (name, stats))
     shutil.copyfile(os.path.join(assets, KEYS_FILE), os.path.join(args.out, KEYS_FILE))
+    with open(os.path.join(args.out, LATIN_KEYS_FILE), "w", encoding="utf-8") as f:
+        f.write("".join(keys[c - 1] + "\n" for c in latin[1:-1]))  # without blank and space
 
     meta = {
         "source": {
@@ -712,6 +773,11 @@ def main():
             "output": "1xTx%d softmax, T = W/8" % (count_keys(os.path.join(assets, KEYS_FILE)) + 2),
             "keys": KEYS_FILE, "num_keys": count_keys(os.path.join(assets, KEYS_FILE)),
             "blank_index": 0, "space_index": "last (num_keys + 1)",
+            "latin": {
+                "files": {str(w): "ppocr_rec_latin_w%d.onnx" % w for w in args.rec_widths},
+                "keys": LATIN_KEYS_FILE, "num_keys": len(latin) - 2,
+                "output": "1xTx%d softmax over the Latin classes only" % len(latin),
+            },
         },
         # What worked best end to end on ICDAR 2015 training images 11..110;
         # PaddleOCR's own defaults are the values above.

@@ -37,6 +37,23 @@ TEST_F(KeyframeValidatorTest, AcceptsAValidJpegKeyframe) {
   EXPECT_EQ(find_keyframe_problem(valid_, limits_, codec_), std::nullopt);
 }
 
+// The pixels it decoded come out for the analysis (which then decodes nothing); a rejected
+// keyframe gives none.
+TEST_F(KeyframeValidatorTest, GivesThePixelsItDecodedOnlyForAnAcceptedKeyframe) {
+  cv::Mat decoded;
+  ASSERT_EQ(find_keyframe_problem(valid_, limits_, codec_, &decoded), std::nullopt);
+  const DecodeResult direct = codec_.decode(valid_.image);
+  ASSERT_TRUE(direct.ok());
+  ASSERT_EQ(decoded.size(), direct.image.size());
+  ASSERT_EQ(decoded.type(), direct.image.type());
+  EXPECT_EQ(cv::norm(decoded, direct.image, cv::NORM_INF), 0);
+  Keyframe bad = valid_;
+  bad.width += 1;  // the claimed size is not the header's
+  cv::Mat none;
+  EXPECT_NE(find_keyframe_problem(bad, limits_, codec_, &none), std::nullopt);
+  EXPECT_TRUE(none.empty());
+}
+
 TEST_F(KeyframeValidatorTest, AcceptsSizeExactlyAtTheLimits) {
   limits_.max_width = valid_.width;
   limits_.max_height = valid_.height;

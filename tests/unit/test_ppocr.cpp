@@ -196,7 +196,7 @@ TEST(PpocrReaderStartup, MissingRecogniserFileIsNamed) {
   KEYFLEET_REQUIRE_PPOCR_MODELS();
   test::TempDir dir;
   for (const auto& entry : fs::directory_iterator(*models))
-    if (entry.path().filename() != "ppocr_rec_w320.onnx")
+    if (entry.path().filename() != "ppocr_rec_latin_w320.onnx")
       fs::copy_file(entry.path(), dir.path() / entry.path().filename());
   auto config = ppocr_config();
   config.ppocr.models = dir.path().string();
@@ -204,15 +204,26 @@ TEST(PpocrReaderStartup, MissingRecogniserFileIsNamed) {
     make_text_reader(config);
     FAIL() << "no StartupError";
   } catch (const StartupError& e) {
-    EXPECT_NE(std::string(e.what()).find("ppocr_rec_w320.onnx"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("ppocr_rec_latin_w320.onnx"), std::string::npos)
+        << e.what();
   }
   // A file that is not a network is refused at start-up, naming it.
-  { std::ofstream(dir.file("ppocr_rec_w320.onnx")) << "not a model"; }
+  { std::ofstream(dir.file("ppocr_rec_latin_w320.onnx")) << "not a model"; }
   try {
     make_text_reader(config);
     FAIL() << "no StartupError";
   } catch (const StartupError& e) {
-    EXPECT_NE(std::string(e.what()).find("ppocr_rec_w320.onnx"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("ppocr_rec_latin_w320.onnx"), std::string::npos)
+        << e.what();
+  }
+  // Without Latin only, the whole list's files are read: this one is missing.
+  config.ppocr.latin_only = false;
+  fs::remove(dir.file("ppocr_rec_w160.onnx"));
+  try {
+    make_text_reader(config);
+    FAIL() << "no StartupError";
+  } catch (const StartupError& e) {
+    EXPECT_NE(std::string(e.what()).find("ppocr_rec_w160.onnx"), std::string::npos) << e.what();
   }
 }
 
@@ -272,6 +283,52 @@ TEST(PpocrReaderWithModels, StandInLayersGiveOpenCvsOutputs) {
     const cv::Mat opencv = forward(false), ours = forward(true);
     ASSERT_EQ(opencv.total(), ours.total()) << file;
     EXPECT_LT(cv::norm(opencv, ours, cv::NORM_INF), 1e-4) << file;
+  }
+}
+
+// The Latin files (the converter cuts the classifier to the Latin classes and both spaces) hold
+// exactly the classes ppocr::latin_classes keeps of PP-OCRv4's list, and give the whole model's
+// probabilities of those classes divided by their sum: the same arg-max, in 1/50 of the last
+// layer's work.
+TEST(PpocrReaderWithModels, LatinRecogniserIsTheWholeOneOverTheLatinClasses) {
+  KEYFLEET_REQUIRE_PPOCR_MODELS();
+  const int width = 160;
+  const auto load = [&](const char* model, const char* keys) {
+    return PpocrRecognizer({{width, (*models / model).string()}}, (*models / keys).string(),
+                           {true, 0, vision::DnnLayers::in_float()});
+  };
+  const PpocrRecognizer whole = load("ppocr_rec_w160.onnx", "ppocr_keys_v1.txt");
+  const PpocrRecognizer latin = load("ppocr_rec_latin_w160.onnx", "ppocr_keys_latin.txt");
+  const auto& all = whole.classes();
+  const std::vector<bool> allowed = ppocr::latin_classes(all);
+  std::vector<int> kept;
+  for (std::size_t c = 0; c < all.size(); ++c)
+    if (allowed[c] || all[c] == "\xE3\x80\x80" || c + 1 == all.size()) kept.push_back(int(c));
+  ASSERT_EQ(kept.size(), latin.classes().size());
+  for (std::size_t i = 0; i < kept.size(); ++i)
+    EXPECT_EQ(all[std::size_t(kept[i])], latin.classes()[i]) << i;
+  EXPECT_GT(kept.size(), 100u);  // ASCII and the accented letters
+
+  const int shape[] = {1, 3, PpocrRecognizer::kHeight, width};
+  cv::Mat input(4, shape, CV_32F);
+  cv::randu(input, -1, 1);
+  const auto forward = [&](const char* file) {
+    const vision::DnnLayersScope scope(vision::DnnLayers::in_float());
+    cv::dnn::Net net = cv::dnn::readNetFromONNX((*models / file).string());
+    net.setInput(input);
+    const cv::Mat out = net.forward();
+    return cv::Mat(out.size[1], out.size[2], CV_32F, const_cast<float*>(out.ptr<float>())).clone();
+  };
+  const cv::Mat p_all = forward("ppocr_rec_w160.onnx"),
+                p_latin = forward("ppocr_rec_latin_w160.onnx");
+  ASSERT_EQ(p_all.rows, p_latin.rows);
+  ASSERT_EQ(p_latin.cols, int(kept.size()));
+  for (int t = 0; t < p_all.rows; ++t) {
+    double share = 0;
+    for (const int c : kept) share += p_all.at<float>(t, c);
+    for (std::size_t i = 0; i < kept.size(); ++i)
+      EXPECT_NEAR(p_all.at<float>(t, kept[i]) / share, p_latin.at<float>(t, int(i)), 1e-4)
+          << "step " << t << " class " << all[std::size_t(kept[i])];
   }
 }
 

@@ -250,7 +250,7 @@ TEST_F(LyingHintsAtTheStation, KeyframeIsStoredWithItsRegionsFixedAndTheRobotWar
       "test", std::make_shared<spdlog::sinks::ostream_sink_mt>(printed));
   station::GroundStation station(limits_, store_, log_, link_, logger);
   std::vector<Keyframe> stored;
-  station.on_stored([&](const Keyframe& k) { stored.push_back(k); });
+  station.on_stored([&](const Keyframe& k, const cv::Mat&) { stored.push_back(k); });
   for (std::uint64_t seq = 0; seq < 3; ++seq) {
     Keyframe k = test::make_valid_keyframe("liar", seq);  // 64 x 48
     k.text_regions = {{60, 40, 100, 100}, {64, 0, 5, 5}, {1, 2, 3, 4}};

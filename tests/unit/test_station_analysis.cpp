@@ -272,6 +272,33 @@ class ConstantDescriber : public vision::PlaceDescriber {
   vision::PlaceDescriberInfo info_{{160, 120}, 1.0, {}, 2, "constant"};
 };
 
+// A job queued at once carries the pixels the station's check decoded and is not decoded again;
+// one restored from the database (no pixels) decodes its JPEG, and says so when it cannot.
+TEST(KeyframeAnalyzer, ReadsThePixelsTheCheckDecodedElseDecodesTheJpeg) {
+  AnalysisConfig config;
+  KeyframeAnalyzer analyzer(std::make_unique<ScriptedReader>(), nullptr, nullptr, config,
+                            null_logger());
+  const Keyframe k = test::make_valid_keyframe("a", 0, 128, 96);
+  AnalysisJob job = station::job_for(k);
+  ASSERT_TRUE(job.image.empty());
+  AnalysisResult r = analyzer.analyse(job);
+  ASSERT_EQ(r.status, AnalysisStatus::kDone) << r.detail;
+  ASSERT_EQ(r.words.size(), 1u);
+  EXPECT_EQ(r.words[0].text, "HOTEL");  // the 128-pixel-wide JPEG decoded
+
+  job = station::job_for(k, cv::Mat(48, 64, CV_8UC3, cv::Scalar(90, 90, 90)));
+  job.jpeg.assign(16, 0xFF);  // not read: the pixels are at hand
+  r = analyzer.analyse(job);
+  ASSERT_EQ(r.status, AnalysisStatus::kDone) << r.detail;
+  ASSERT_EQ(r.words.size(), 1u);
+  EXPECT_EQ(r.words[0].text, "CAFE");  // the given 64-pixel-wide image
+
+  job.image = cv::Mat();
+  r = analyzer.analyse(job);
+  EXPECT_EQ(r.status, AnalysisStatus::kFailed);
+  EXPECT_NE(r.detail.find("cannot decode"), std::string::npos) << r.detail;
+}
+
 TEST_F(AnalysisStoreTest, StationAnalysisFeedsTheMapAndARestartRestoresIt) {
   AnalysisConfig config;
   config.places.same_robot_exclusion_s = 1e6;  // only other robots count as revisits

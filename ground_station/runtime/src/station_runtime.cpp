@@ -160,11 +160,11 @@ StationRuntime::StationRuntime(StationConfig config, const StationFolders& folde
                        ? ""
                        : " (with its token: see dashboard.url)");
   }
-  p.station->on_stored(
-      [analysis = p.analysis.get(), dashboard = p.dashboard.get()](const Keyframe& k) {
-        analysis->on_stored(k);
-        if (dashboard) dashboard->poke();
-      });
+  p.station->on_stored([analysis = p.analysis.get(), dashboard = p.dashboard.get()](
+                           const Keyframe& k, const cv::Mat& decoded) {
+    analysis->on_stored(k, decoded);
+    if (dashboard) dashboard->poke();
+  });
 
   p.mission_log.event("station started", wall_time_ns());
   p.logger->info("station ready: {} keyframe(s) already in {}", p.store.keyframe_count(),

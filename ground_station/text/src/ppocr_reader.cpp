@@ -11,7 +11,7 @@
 namespace keyfleet::station {
 namespace {
 
-// The recogniser's input widths (converted files ppocr_rec_w<W>.onnx): a line goes to the
+// The recogniser's input widths (converted files ppocr_rec[_latin]_w<W>.onnx): a line goes to the
 // narrowest that holds it at height 48. 160 is enough for most words and costs half of 320.
 constexpr int kRecogniserWidths[] = {160, 320, 640};
 
@@ -74,16 +74,20 @@ std::vector<PpocrDetector> make_detectors(const TextReadingConfig& params) {
   return detectors;
 }
 
+// Latin only: the files whose classifier the converter cut to the Latin classes (its last layer
+// 1/50 of the work, the softmax over 124 classes instead of 6,625); else PP-OCRv4's whole list.
 PpocrRecognizer make_recognizer(const TextReadingConfig& params) {
+  const bool latin = params.ppocr.latin_only;
+  const std::string prefix = latin ? "ppocr_rec_latin_w" : "ppocr_rec_w";
   std::map<int, std::string> files;
   for (const int width : kRecogniserWidths)
-    files[width] =
-        locate(params, "ppocr_rec_w" + std::to_string(width) + ".onnx", "ppocr recogniser");
+    files[width] = locate(params, prefix + std::to_string(width) + ".onnx", "ppocr recogniser");
   if (!(params.ppocr.space_probability >= 0 && params.ppocr.space_probability <= 1))
     throw StartupError("text reader: ppocr_space_probability must be within 0..1");
   return PpocrRecognizer(
-      files, locate(params, "ppocr_keys_v1.txt", "ppocr character list"),
-      {params.ppocr.latin_only, float(params.ppocr.space_probability), stand_in_layers(params)});
+      files,
+      locate(params, latin ? "ppocr_keys_latin.txt" : "ppocr_keys_v1.txt", "ppocr character list"),
+      {latin, float(params.ppocr.space_probability), stand_in_layers(params)});
 }
 
 float quad_area(const TextQuad& quad) {

@@ -1,8 +1,9 @@
 #pragma once
 // PP-OCRv4 text-line recogniser (SVTR-LCNet with a CTC head) run through OpenCV DNN.
 //
-// OpenCV 4.6 needs one converted file per input width (ppocr_rec_w<W>.onnx, height 48). A line
-// is cut out of the image along its quad, scaled to height 48 keeping its aspect, put into the
+// OpenCV 4.6 needs one converted file per input width (ppocr_rec_w<W>.onnx, height 48; the
+// station's Latin reader ppocr_rec_latin_w<W>.onnx, the classifier cut to the Latin classes). A
+// line is cut out of the image along its quad, scaled to height 48 keeping its aspect, put into the
 // narrowest width that holds it (padded right; longer lines are squeezed into the widest), read
 // with greedy CTC and split into words at spaces, each with a box interpolated along the quad.
 #include <opencv2/core.hpp>
@@ -19,7 +20,8 @@ namespace keyfleet::station {
 
 struct RecognizedWord {
   std::string text;      // UTF-8
-  float confidence = 0;  // mean over its characters of the winning class probability
+  float confidence = 0;  // mean over its characters of the winning class probability (among
+                         // the classes the file holds: the Latin ones in the Latin files)
   TextQuad quad;         // in the pixels of the image the line was cut from
 };
 

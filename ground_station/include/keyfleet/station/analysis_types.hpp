@@ -1,4 +1,6 @@
 #pragma once
+#include <opencv2/core.hpp>
+
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -32,9 +34,11 @@ struct AnalysisJob {
   std::optional<Pose> pose;
   std::vector<std::uint8_t> jpeg;
   std::vector<TextRegion> text_regions;  // the robot's hints, as the station checked them
+  cv::Mat image;  // the JPEG's pixels where the station's check decoded them; empty: decode `jpeg`
 };
 
-AnalysisJob job_for(const Keyframe& keyframe);
+// `decoded`: the keyframe's pixels, when at hand (a job queued at once), else empty.
+AnalysisJob job_for(const Keyframe& keyframe, cv::Mat decoded = {});
 
 // A verified place match: this keyframe shows the place `other` shows.
 struct PlaceMatch {

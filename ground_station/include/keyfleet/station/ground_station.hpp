@@ -43,16 +43,16 @@ class GroundStation {
   // above 0 nothing is acknowledged and the robots keep their copies.
   std::size_t storage_failures() const { return storage_failures_; }
   const RobotAdmission& admission() const { return *admission_; }
-  // Called once per keyframe newly stored (not for duplicates or rejections), after commit.
-  void on_stored(std::function<void(const Keyframe&)> callback) {
-    on_stored_ = std::move(callback);
-  }
+  // Called once per keyframe newly stored (not for duplicates or rejections), after commit, with
+  // the pixels its check decoded.
+  using StoredCallback = std::function<void(const Keyframe&, const cv::Mat& decoded)>;
+  void on_stored(StoredCallback callback) { on_stored_ = std::move(callback); }
 
  private:
   void note_robot(const std::string& robot_id);
   std::optional<KeyframeAck> refuse_robot(const ReceivedKeyframe& received);
-  KeyframeAck store_checked(const Keyframe& keyframe, std::uint64_t serialized_bytes,
-                            std::int64_t now_ns);
+  KeyframeAck store_checked(const Keyframe& keyframe, const cv::Mat& decoded,
+                            std::uint64_t serialized_bytes, std::int64_t now_ns);
   void storage_failed(const std::string& what, const char* error);
   // Runs a mission-log write; a failure is said (once, then every 100th) and not thrown: the
   // database, not the log, is what acknowledgements promise.
@@ -68,7 +68,7 @@ class GroundStation {
   JpegCodec codec_{90};
   std::set<std::string> robots_;
   std::set<std::string> warned_text_regions_;  // robots whose bad text regions were logged
-  std::function<void(const Keyframe&)> on_stored_;
+  StoredCallback on_stored_;
   std::size_t storage_failures_ = 0;
   std::size_t mission_log_failures_ = 0;
 };

@@ -1,4 +1,6 @@
 #pragma once
+#include <opencv2/core.hpp>
+
 #include <optional>
 #include <string>
 #include <vector>
@@ -15,10 +17,12 @@ namespace keyfleet::station {
 // sizes (claimed, in the JPEG header, and decoded, all against the limits), the JPEG's markers
 // walked and its decoding cost bounded (coding process, scans, pixels, pixels per byte:
 // find_jpeg_cost_problem), and only then that the image decodes. Returns the reason for
-// rejection, or nullopt when it is acceptable.
+// rejection, or nullopt when it is acceptable; then `decoded` (when given) holds the pixels, which
+// the analysis reads instead of decoding the JPEG again.
 std::optional<std::string> find_keyframe_problem(const Keyframe& keyframe,
                                                  const StationLimits& limits,
-                                                 const ImageCodec& codec);
+                                                 const ImageCodec& codec,
+                                                 cv::Mat* decoded = nullptr);
 
 // A keyframe's text regions made fit to use: each one that is empty or starts outside the
 // image dropped, each one that reaches past the image's edge clamped to it, and at most

@@ -39,7 +39,8 @@ class StationAnalysis {
   // without a result (it ended the station each time), so that it is not analysed again.
   // Returns how many.
   std::size_t skip_abandoned(const AnalysisAttempts& attempts, int max_attempts);
-  void on_stored(const Keyframe& keyframe);
+  // `decoded`: its pixels where the station's check decoded them (else the analysis decodes).
+  void on_stored(const Keyframe& keyframe, const cv::Mat& decoded = {});
   // Saves finished results, backfills when idle. Returns the number of results saved.
   std::size_t step();
   // Runs step() until nothing is queued or unanalysed, or `timeout` passes.

@@ -43,7 +43,9 @@ struct PpocrSettings {
   double box_threshold = 0.6;     // 0..1: min mean probability inside a kept line box
   double unclip_ratio = 1.5;      // line boxes grown by area * ratio / perimeter px
   // The recogniser's list is mostly Chinese: on Latin-script streets its Chinese classes only
-  // ever produce junk, so by default it reads Latin letters, digits and punctuation only.
+  // ever produce junk, so by default it reads Latin letters, digits and punctuation only,
+  // through the converted files whose classifier holds the Latin classes alone
+  // (ppocr_rec_latin_w<W>.onnx, ppocr_keys_latin.txt: docs/models.md).
   bool latin_only = true;
   // A word also ends between two characters where the space class reaches this probability
   // though another class wins (the model often reads "you know" as "youknow", the space at
