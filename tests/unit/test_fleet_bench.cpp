@@ -28,6 +28,7 @@ AgentStreamFigures agent(double stream_s, std::uint64_t late, double trigger_ms)
 TEST(FleetFigures, RealTimeFactorsCpuAndStagesFromHandMadeTimings) {
   StationFigures station;
   station.cpu_s = 1.2;
+  station.start_cpu_s = 0.3;  // its models and DDS, before the first keyframe
   station.keyframes = 4;
   station.text_ms = 800;
   station.text_cpu_ms = 600;
@@ -43,6 +44,7 @@ TEST(FleetFigures, RealTimeFactorsCpuAndStagesFromHandMadeTimings) {
   EXPECT_DOUBLE_EQ(r.agent_stream_cpu_ms_per_frame, 8.0);
   EXPECT_DOUBLE_EQ(r.stage_ms_per_frame.at("trigger"), 2.0);
   EXPECT_DOUBLE_EQ(r.station_cpu_ms_per_frame, 2.0);
+  EXPECT_DOUBLE_EQ(r.station_work_cpu_ms_per_frame, 1.5);
   EXPECT_DOUBLE_EQ(r.station_text_ms_per_keyframe, 200);
   EXPECT_DOUBLE_EQ(r.station_text_cpu_ms_per_keyframe, 150);
   EXPECT_DOUBLE_EQ(r.station_places_ms_per_keyframe, 10);
@@ -67,6 +69,7 @@ TEST(FleetFigures, LargestRealTimeFleetStopsAtTheFirstThatFallsBehind) {
   EXPECT_NE(table.find("largest N at real time: none"), std::string::npos) << table;
   EXPECT_NE(table.find("trigger"), std::string::npos) << table;
   EXPECT_NE(table.find("strm ms/f"), std::string::npos) << table;
+  EXPECT_NE(table.find("stn work"), std::string::npos) << table;
 }
 
 TEST(StreamSummary, ReadsWhatTheAgentWritesAndNamesABrokenFile) {

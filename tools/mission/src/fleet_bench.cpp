@@ -27,6 +27,12 @@ double per(double total, double count) { return count > 0 ? total / count : 0; }
 StationFigures read_station(const ProcessFigures& station) {
   StationFigures figures;
   figures.cpu_s = station.cpu_s;
+  try {
+    std::ifstream in(fs::path(station.run_dir) / "process.json");
+    if (in) figures.start_cpu_s = nlohmann::json::parse(in).value("start_cpu_s", 0.0);
+  } catch (const nlohmann::json::exception&) {
+    // A station that stopped while writing it: its whole CPU only.
+  }
   const fs::path database = fs::path(station.run_dir) / "station.sqlite";
   if (!fs::exists(database)) return figures;
   try {
@@ -105,6 +111,8 @@ FleetRunFigures fleet_figures(int drones, bool realtime,
   r.agent_stream_cpu_ms_per_frame = per(1e3 * stream_cpu_s, frames);
   for (const auto& [name, ms] : stage_ms) r.stage_ms_per_frame[name] = per(ms, frames);
   r.station_cpu_ms_per_frame = per(1e3 * station.cpu_s, frames);
+  r.station_work_cpu_ms_per_frame =
+      per(1e3 * std::max(0.0, station.cpu_s - station.start_cpu_s), frames);
   r.station_keyframes = station.keyframes;
   r.station_text_ms_per_keyframe = per(station.text_ms, double(station.keyframes));
   r.station_places_ms_per_keyframe = per(station.places_ms, double(station.keyframes));
@@ -131,23 +139,24 @@ std::optional<int> largest_realtime(const std::vector<FleetRunFigures>& runs) {
 std::string format_fleet_table(const std::vector<FleetRunFigures>& runs, unsigned cores) {
   std::string out;
   char line[512];
-  std::snprintf(line, sizeof line,
-                "%-9s %3s %7s %6s %6s %7s %7s %8s %9s %9s %9s %8s %9s %9s %9s %s\n", "mode", "N",
-                "wall s", "RTF", "RTFmin", "frames", "late", "lag ms", "agent ms/f", "strm ms/f",
-                "stn ms/f", "stn kf", "OCR ms/kf", "OCR cpu", "fps/core", "real time");
+  std::snprintf(
+      line, sizeof line, "%-9s %3s %7s %6s %6s %7s %7s %8s %9s %9s %9s %9s %8s %9s %9s %9s %s\n",
+      "mode", "N", "wall s", "RTF", "RTFmin", "frames", "late", "lag ms", "agent ms/f", "strm ms/f",
+      "stn ms/f", "stn work", "stn kf", "OCR ms/kf", "OCR cpu", "fps/core", "real time");
   out += line;
   std::set<std::string> stages;
   for (const auto& r : runs) {
     for (const auto& [name, ms] : r.stage_ms_per_frame) stages.insert(name);
     std::snprintf(
         line, sizeof line,
-        "%-9s %3d %7.1f %6.2f %6.2f %7llu %7llu %8.0f %9.2f %9.2f %9.2f %8llu %9.0f %9.0f "
-        "%9.1f %s\n",
+        "%-9s %3d %7.1f %6.2f %6.2f %7llu %7llu %8.0f %9.2f %9.2f %9.2f %9.2f %8llu %9.0f "
+        "%9.0f %9.1f %s\n",
         r.realtime ? "realtime" : "fast", r.drones, r.wall_s, r.rtf_mean, r.rtf_min,
         static_cast<unsigned long long>(r.frames), static_cast<unsigned long long>(r.late_frames),
         r.max_lag_ms, r.agent_cpu_ms_per_frame, r.agent_stream_cpu_ms_per_frame,
-        r.station_cpu_ms_per_frame, static_cast<unsigned long long>(r.station_keyframes),
-        r.station_text_ms_per_keyframe, r.station_text_cpu_ms_per_keyframe, r.frames_per_s_per_core,
+        r.station_cpu_ms_per_frame, r.station_work_cpu_ms_per_frame,
+        static_cast<unsigned long long>(r.station_keyframes), r.station_text_ms_per_keyframe,
+        r.station_text_cpu_ms_per_keyframe, r.frames_per_s_per_core,
         !r.realtime ? "-" : (r.keeps_realtime && r.failures.empty() ? "yes" : "NO"));
     out += line;
   }

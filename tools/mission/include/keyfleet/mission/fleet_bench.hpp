@@ -50,6 +50,7 @@ AgentStreamFigures read_stream_summary(const std::string& path, const std::strin
 // reading's CPU ms on the worker's thread).
 struct StationFigures {
   double cpu_s = 0;
+  double start_cpu_s = 0;  // of cpu_s, to start (station/process.json; 0 when absent)
   std::uint64_t keyframes = 0;
   double text_ms = 0, places_ms = 0, text_cpu_ms = 0;
 };
@@ -65,6 +66,7 @@ struct FleetRunFigures {
   double agent_stream_cpu_ms_per_frame = 0;          // the same from first frame to last
   std::map<std::string, double> stage_ms_per_frame;  // agents' stages, calling thread
   double station_cpu_ms_per_frame = 0;
+  double station_work_cpu_ms_per_frame = 0;  // the same without its start
   std::uint64_t station_keyframes = 0;
   double station_text_ms_per_keyframe = 0, station_places_ms_per_keyframe = 0;
   double station_text_cpu_ms_per_keyframe = 0;
