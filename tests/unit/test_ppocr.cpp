@@ -192,6 +192,16 @@ TEST(PpocrReaderStartup, BadDetectorSizeOrThresholdIsRefused) {
   EXPECT_THROW(make_text_reader(config), StartupError);
 }
 
+// make_text_reader refuses `config` at start-up with a message naming `file`.
+void expect_refusal_naming(const TextReadingConfig& config, const std::string& file) {
+  try {
+    make_text_reader(config);
+    ADD_FAILURE() << "no StartupError; expected one naming " << file;
+  } catch (const StartupError& e) {
+    EXPECT_NE(std::string(e.what()).find(file), std::string::npos) << e.what();
+  }
+}
+
 TEST(PpocrReaderStartup, MissingRecogniserFileIsNamed) {
   KEYFLEET_REQUIRE_PPOCR_MODELS();
   test::TempDir dir;
@@ -200,31 +210,14 @@ TEST(PpocrReaderStartup, MissingRecogniserFileIsNamed) {
       fs::copy_file(entry.path(), dir.path() / entry.path().filename());
   auto config = ppocr_config();
   config.ppocr.models = dir.path().string();
-  try {
-    make_text_reader(config);
-    FAIL() << "no StartupError";
-  } catch (const StartupError& e) {
-    EXPECT_NE(std::string(e.what()).find("ppocr_rec_latin_w320.onnx"), std::string::npos)
-        << e.what();
-  }
+  expect_refusal_naming(config, "ppocr_rec_latin_w320.onnx");
   // A file that is not a network is refused at start-up, naming it.
   { std::ofstream(dir.file("ppocr_rec_latin_w320.onnx")) << "not a model"; }
-  try {
-    make_text_reader(config);
-    FAIL() << "no StartupError";
-  } catch (const StartupError& e) {
-    EXPECT_NE(std::string(e.what()).find("ppocr_rec_latin_w320.onnx"), std::string::npos)
-        << e.what();
-  }
+  expect_refusal_naming(config, "ppocr_rec_latin_w320.onnx");
   // Without Latin only, the whole list's files are read: this one is missing.
   config.ppocr.latin_only = false;
   fs::remove(dir.file("ppocr_rec_w160.onnx"));
-  try {
-    make_text_reader(config);
-    FAIL() << "no StartupError";
-  } catch (const StartupError& e) {
-    EXPECT_NE(std::string(e.what()).find("ppocr_rec_w160.onnx"), std::string::npos) << e.what();
-  }
+  expect_refusal_naming(config, "ppocr_rec_w160.onnx");
 }
 
 // ---------------------------------------------------------------- with the converted models
