@@ -61,7 +61,8 @@ const Keyframes& keyframes() {
   return k;
 }
 
-// Decoding a stored keyframe (the station does it twice: validating it, analysing it): arg 0 =
+// Decoding a stored keyframe (the station decodes it once, to check it, and analyses those
+// pixels; a keyframe analysed after a restart is decoded again): arg 0 =
 // the station's JpegCodec (libjpeg-turbo into BGR), 1 = cv::imdecode as it decoded until
 // 2026-11-27. The same pixels (test JpegCodec.DecodesThePixelsOpenCvDecodes).
 void BM_DecodeKeyframe(benchmark::State& state) {
