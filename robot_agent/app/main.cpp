@@ -1,12 +1,12 @@
 // robot_agent: composition root of one robot's keyframe pipeline.
 #include <CLI/CLI.hpp>
 
-#include <ctime>
 #include <filesystem>
 #include <iostream>
 
 #include "keyfleet/agent/agent_runner.hpp"
 #include "keyfleet/cli/process_options.hpp"
+#include "keyfleet/common/clock.hpp"
 #include "keyfleet/common/config_error.hpp"
 #include "keyfleet/common/process_tuning.hpp"
 #include "keyfleet/common/security_files.hpp"
@@ -58,7 +58,7 @@ int run(const ProcessOptions& options, const std::string& robot_id) {
   const std::string summary_path =
       (std::filesystem::path(options.run_dir) / "stream.json").string();
   if (!agent::write_stream_summary(summary_path, runner.summary(), clock.snapshot(),
-                                   double(std::clock()) / CLOCKS_PER_SEC))  // all threads
+                                   process_cpu_s()))
     logger->warn("cannot write {}", summary_path);
   switch (outcome) {
     case agent::AgentOutcome::kDelivered: return 0;

@@ -3,7 +3,6 @@
 #include "keyfleet/common/clock.hpp"
 
 #include <algorithm>
-#include <ctime>
 #include <fstream>
 
 namespace keyfleet::agent {
@@ -50,7 +49,7 @@ bool AgentRunner::wait_for_station(const StopToken& stop) {
 
 void AgentRunner::stream(const StopToken& stop) {
   const auto start = Clock::now();
-  const std::clock_t cpu_start = std::clock();  // the process's, all threads
+  const double cpu_start = process_cpu_s();  // the process's, all threads
   const double fps = source_.fps();
   summary_ = StreamSummary{};
   summary_.fps = fps;
@@ -84,7 +83,7 @@ void AgentRunner::stream(const StopToken& stop) {
   }
   agent_.finish_stream(boot_time_ns());
   summary_.stream_s = std::chrono::duration<double>(Clock::now() - start).count();
-  summary_.stream_cpu_s = double(std::clock() - cpu_start) / CLOCKS_PER_SEC;
+  summary_.stream_cpu_s = process_cpu_s() - cpu_start;
   logger_->info("stream ended after {} frames in {:.2f} s ({:.2f} s of flight), {} late", frames,
                 summary_.stream_s, summary_.flight_s(), summary_.late_frames);
 }

@@ -1,7 +1,6 @@
 #include "keyfleet/station/station_runtime.hpp"
 
 #include <cstdio>
-#include <ctime>
 #include <filesystem>
 #include <iostream>
 #include <optional>
@@ -106,12 +105,6 @@ struct StationRuntime::Parts {
   double start_cpu_s = 0;  // the process's CPU (all threads) when it was ready
   bool finished = false;
 };
-
-namespace {
-
-double process_cpu_s() { return double(std::clock()) / CLOCKS_PER_SEC; }
-
-}  // namespace
 
 StationRuntime::StationRuntime(StationConfig config, const StationFolders& folders,
                                const StationLinkFactory& make_link)

@@ -18,4 +18,7 @@ std::int64_t boot_time_ns();
 // CPU time of the calling thread, for per-stage cost accounting.
 double thread_cpu_ms();
 
+// CPU time of the whole process (all its threads) so far, in seconds.
+double process_cpu_s();
+
 }  // namespace keyfleet
