@@ -24,27 +24,7 @@ width=${students%%,*}
 keyfleet="$build/bin/keyfleet"
 teacher="$build/share/keyfleet/models/ppocr/ppocr_det_320x256.onnx"
 [ -f "$teacher" ] || { echo "distill_mininet: no teacher at $teacher (fetch_ppocr.sh)" >&2; exit 1; }
-[ -d "$data_root/icdar2015/train/images" ] ||
-  { echo "distill_mininet: no ICDAR 2015 photos under $data_root (KEYFLEET_DATA)" >&2; exit 1; }
-
-mkdir -p "$work"
-if [ ! -f "$work/pairs/done" ]; then
-  rm -rf "$work/pairs"
-  "$keyfleet" scenario training "$root/configs/scenario_training.yaml" --out "$work/pairs" --count 600
-  touch "$work/pairs/done"
-fi
-if [ ! -f "$work/heldout/done" ]; then  # other streets (another seed), as train_mininet.sh's
-  rm -rf "$work/heldout"
-  "$keyfleet" scenario training "$root/configs/scenario_training.yaml" --seed 977 \
-    --out "$work/heldout" --count 100
-  touch "$work/heldout/done"
-fi
-if [ ! -f "$work/pack/done" ]; then
-  rm -rf "$work/pack"
-  /usr/bin/python3 "$root/models/mininet/distill_pack.py" --data "$data_root" \
-    --generated "$work/pairs" --heldout "$work/heldout" --out "$work/pack"
-  touch "$work/pack/done"
-fi
+"$root/scripts/distill_pack.sh" "$work"
 checkpoint=${EXPORT_FROM:-}
 if [ -z "$checkpoint" ]; then
   init=()

