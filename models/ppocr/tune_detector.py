@@ -3,40 +3,38 @@ own student, started from the detector's weights, and learns the detector's own 
 size (the same aspect) on the same views (no labels needed).
 
   /usr/bin/python3 models/ppocr/tune_detector.py --pack DIR --student ppocr_det_256x192.onnx \
-      --teacher ppocr_det_384x288.onnx --work DIR [--batch 12] [--lr 1e-4] [--max-minutes 50]
+      --teacher ppocr_det_384x288.onnx --work DIR [--batch 12] [--lr 1e-4] [--max-minutes 32]
 
 Why: the agent's semantic score costs one detector pass per frame scored, in proportion to the
 input's pixels; PP-OCRv4 was trained on large inputs, so at 256x192 it misses the small words it
-finds at larger ones (ICDAR 2015 test_clean IoU 19.5 % against 24.8 % at 320x256, untuned). A MiniNet
-distilled from scratch learnt too little in the GPU minutes sessions get
+finds at larger ones (ICDAR 2015 test_clean IoU 19.5 % against 24.8 % at 320x256, untuned). A
+MiniNet distilled from scratch learnt too little in the GPU minutes sessions get
 (docs/results/2026-11-27-distillation.md); a student that starts as the teacher starts where the
-teacher already is and only has to adapt its filters to text half the size, which two CPU cores
-do in under an hour.
+teacher already is and only has to adapt its filters to text two thirds the size, which two CPU
+cores do in half an hour.
 
 The pack is models/mininet/distill_pack.py's folder. Views: models/mininet/distill.py's (windows
 of real and generated frames, flips, brightness, contrast, grey, motion blur) at the teacher's
 size; the student reads each view resized bilinearly to its own size (as the agent's blob resize
 does), both with ImageNet's mean and std as the agent feeds the detector. Target: the teacher's
 text kernels (its map over DB's binary threshold, 0.3), a student pixel text where the kernels
-cover at least half of it: binary, as DB's own training targets are. (Averaged soft maps made
-the students' kernels a pixel wider all round, and DB's unclipping turned that into boxes far
-larger than the words: precision fell from 0.64 to 0.38 on held-out streets in 400 steps.) The
-teacher's size is a choice: at
-512x384 it finds more of ICDAR's small words than at 384x288 but also much unlabelled text in the
-generated streets' textures, and its students followed it there
-(docs/results/2026-11-27-tuned-detector.md). Loss: binary cross-entropy plus the batch's
-soft Dice loss (the student starts calibrated, so the plain cross-entropy does not collapse as it
-did from scratch). Trained: every convolution's weights and biases and the head's
-batch-norm scales and shifts; the graph itself (and with it every C++ stand-in the agent runs it
-with) is the converted file's. Adam, cosine decay from --lr; bounded by --steps or
---max-minutes.
+cover at least half of it: binary, as DB's own training targets are (a run on the averaged soft
+map fared no better: with either, the students came to mark some windows of the generated
+streets as text). The teacher's size is a choice: at 512x384 it finds more of ICDAR's small words
+than at 384x288 but also much unlabelled text in the generated streets' textures, and its
+students followed it there (docs/results/2026-11-27-tuned-detector.md). Loss: binary
+cross-entropy plus the batch's soft Dice loss (the student starts calibrated, so the plain
+cross-entropy does not collapse as it did from scratch). Trained: every convolution's weights and
+biases and the head's batch-norm scales and shifts; the graph itself (and with it every C++
+stand-in the agent runs it with) is the converted file's. Adam, cosine decay from --lr; bounded
+by --steps or --max-minutes.
 
 Every --validate-every steps: the student's filled DB boxes (the agent's post-processing) against
 the truth on the packed ICDAR validation photos (ids divisible by 10, never trained on) and the
 held-out generated views, at the student's size; WORK/validation.csv gets a row, WORK/last.pt and
 WORK/best.pt (the best mean of the two IoUs: real photos and the product's own streets) the
-weights. export_tuned() writes an ONNX file: the
-student's converted file with its trained initializers replaced, nothing else changed.
+weights. export_tuned() writes an ONNX file: the student's converted file with its trained
+initializers replaced, nothing else changed.
 """
 import argparse
 import csv
