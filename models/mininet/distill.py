@@ -92,8 +92,9 @@ class Views:
     tensor (images padded to the source's largest), a batch's windows one affine grid sample per
     source (bilinear, as the agent's own resize), its blur one grouped convolution."""
 
-    def __init__(self, pack, mix, device, seed, bank=256):
+    def __init__(self, pack, mix, device, seed, bank=256, whole=1 / 3):
         self.device = device
+        self.whole = whole  # the share of views that are a whole frame
         self.sources, self.sizes, weights = [], [], []
         for name, weight in zip(SOURCES, mix):
             images = load_folder(os.path.join(pack, name))
@@ -123,11 +124,11 @@ class Views:
         self.grey = torch.tensor([0.114, 0.587, 0.299], device=device).view(1, 3, 1, 1)
 
     def windows(self, sizes, padded):
-        """Affine parameters (n x 2 x 3) of random windows: the whole frame a third of the time,
+        """Affine parameters (n x 2 x 3) of random windows: the whole frame `whole` of the time,
         else 45..100 % of its width and, independently, of its height; flipped half the time."""
         rng, n = self.rng, len(sizes)
         h, w = sizes[:, 0], sizes[:, 1]
-        whole = rng.random(n) < 1 / 3
+        whole = rng.random(n) < self.whole
         ww = np.where(whole, w, np.maximum(32, w * rng.uniform(0.45, 1.0, n)))
         wh = np.where(whole, h, np.maximum(32, h * rng.uniform(0.45, 1.0, n)))
         x0 = rng.random(n) * (w - ww)

@@ -153,6 +153,9 @@ def main():
     ap.add_argument("--out", default="")
     ap.add_argument("--describe", default="", help="the student's keyfleet-segmenter .json")
     ap.add_argument("--mix", default="9,2,6,3", help="weights of " + ",".join(distill.SOURCES))
+    ap.add_argument("--whole-views", type=float, default=1 / 3,
+                    help="share of views that show a whole frame at the teacher's size (the "
+                         "rest: windows of 45..100 %% of its sides, enlarged)")
     ap.add_argument("--steps", type=int, default=4000)
     ap.add_argument("--batch", type=int, default=12)
     ap.add_argument("--lr", type=float, default=1e-4)
@@ -198,7 +201,7 @@ def main():
           f"{sum(p.numel() for p in params) / 1e6:.3f} M values tuned; teacher {big[1]}x{big[0]}",
           flush=True)
     views = distill.Views(args.pack, [float(v) for v in args.mix.split(",")], torch.device("cpu"),
-                          args.seed + step0)
+                          args.seed + step0, whole=args.whole_views)
     sets = {"icdar_val": distill.load_folder(os.path.join(args.pack, "icdar_val"), True),
             "generated_val": distill.load_folder(os.path.join(args.pack, "generated_val"), True)}
     optimizer = torch.optim.Adam(params, lr=args.lr)

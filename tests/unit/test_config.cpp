@@ -234,6 +234,11 @@ TEST(ConfigBadValue, PpocrSettingsAreChecked) {
   EXPECT_EQ(parse_station_config(text("ppocr_detector_size: 1280x736"), "station.yaml")
                 .analysis.text.ppocr.detector_size,
             "1280x736");
+  EXPECT_EQ(parse_station_config(text("ppocr_keyframe_detector: kf/ppocr_det_512x384_tuned.onnx"),
+                                 "station.yaml")
+                .analysis.text.ppocr.keyframe_detector,
+            "kf/ppocr_det_512x384_tuned.onnx");
+  EXPECT_EQ(StationConfig{}.analysis.text.ppocr.keyframe_detector, "");
   for (const std::string bad : {"650x480", "640", "640x480x3", "0x480", "8192x480"}) {
     const std::string message = config_error_of(
         [&] { parse_station_config(text("ppocr_detector_size: " + bad), "station.yaml"); });

@@ -220,6 +220,29 @@ TEST(PpocrReaderStartup, MissingRecogniserFileIsNamed) {
   expect_refusal_naming(config, "ppocr_rec_w160.onnx");
 }
 
+// A keyframe detector that is missing, or whose .json gives an input larger than a keyframe's, is
+// refused at start-up with the setting and the file named.
+TEST(PpocrReaderStartup, BadKeyframeDetectorIsNamed) {
+  auto config = ppocr_config();
+  config.ppocr.keyframe_detector = "/nonexistent/ppocr_det_512x384_tuned.onnx";
+  expect_refusal_naming(config, "/nonexistent/ppocr_det_512x384_tuned.onnx");
+  expect_refusal_naming(config, "ppocr_keyframe_detector");
+  test::TempDir dir;
+  { std::ofstream(dir.file("big.onnx")) << "not read before its size is checked"; }
+  {
+    std::ofstream(dir.file("big.json"))
+        << R"({"format": "keyfleet-segmenter", "input_width": 1280, "input_height": 736,
+              "size_multiple": 32, "scale": 0.0039, "mean_bgr": [123.7, 116.3, 103.5],
+              "output": "text_probability", "classes": ["text"], "target_classes": ["text"]})";
+  }
+  config.ppocr.keyframe_detector = dir.file("big.onnx");
+  expect_refusal_naming(config, "within a keyframe's 640x480");
+  // Only "auto" has a keyframe detector: with a fixed size (one file for every image) the
+  // setting would be ignored, so it is refused.
+  config.ppocr.detector_size = "1280x736";
+  expect_refusal_naming(config, "under ppocr_detector_size auto, but the size is '1280x736'");
+}
+
 // ---------------------------------------------------------------- with the converted models
 
 TEST(PpocrReaderWithModels, LoadsAndSurvivesHostileImages) {
@@ -253,6 +276,43 @@ TEST(PpocrReaderWithModels, ReadsAPrintedWordInAKeyframe) {
       EXPECT_NEAR(words[0].box.x, 120, 25);
       EXPECT_NEAR(words[0].box.y + words[0].box.height, 260, 25);
     }
+}
+
+// ppocr_keyframe_detector takes the images that fit a keyframe, letterboxed into its smaller
+// input (the word's box still in the keyframe's pixels); larger images keep the fetched 1280x736
+// file, as without it. The test's keyframe detector is the fetched 320x256 segmenter conversion.
+TEST(PpocrReaderWithModels, KeyframeDetectorReadsKeyframesOnly) {
+  KEYFLEET_REQUIRE_PPOCR_MODELS();
+  cv::Mat keyframe(480, 640, CV_8UC3, cv::Scalar(200, 210, 220));
+  cv::putText(keyframe, "STATION", {120, 260}, cv::FONT_HERSHEY_DUPLEX, 3.0, cv::Scalar(30, 30, 30),
+              6, cv::LINE_AA);
+  cv::Mat photo(720, 1280, CV_8UC3, cv::Scalar(200, 210, 220));
+  cv::putText(photo, "HARBOUR", {300, 400}, cv::FONT_HERSHEY_DUPLEX, 2.0, cv::Scalar(30, 30, 30), 4,
+              cv::LINE_AA);
+  auto config = ppocr_config();
+  const auto fetched = make_text_reader(config);
+  config.ppocr.keyframe_detector = "ppocr/ppocr_det_320x256.onnx";
+  const auto tuned = make_text_reader(config);
+  const auto words = tuned->read(keyframe);
+  ASSERT_EQ(words.size(), 1u);
+
+  EXPECT_EQ(words[0].text, "STATION");
+  // The line found at half the resolution: in the keyframe's pixels, within a few of the fetched
+  // 640x480 file's box (measured 8 px apart at the left end), but not its box (that file is not
+  // what read it) ...
+  const auto before = fetched->read(keyframe);
+  ASSERT_EQ(before.size(), 1u);
+  for (std::size_t i = 0; i < 4; ++i) {
+    EXPECT_NEAR(words[0].quad[i].x, before[0].quad[i].x, 12) << "corner " << i;
+    EXPECT_NEAR(words[0].quad[i].y, before[0].quad[i].y, 12) << "corner " << i;
+  }
+  EXPECT_NE(words[0].quad, before[0].quad);
+  // ... while a 1280x720 photo goes to the same 1280x736 file with or without it.
+  const auto photo_words = tuned->read(photo), photo_before = fetched->read(photo);
+  ASSERT_EQ(photo_words.size(), 1u);
+  EXPECT_EQ(photo_words[0].text, "HARBOUR");
+  ASSERT_EQ(photo_before.size(), 1u);
+  EXPECT_EQ(photo_words[0].quad, photo_before[0].quad);
 }
 
 // In float, keyfleet's stand-in layers give OpenCV's own outputs of both networks to float rounding

@@ -5,6 +5,7 @@
 
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/vision/model_files.hpp"
+#include "keyfleet/vision/text_segmenter.hpp"
 #include "line_reading.hpp"
 #include "readers.hpp"
 
@@ -18,6 +19,7 @@ constexpr int kRecogniserWidths[] = {160, 320, 640};
 // The detector sizes scripts/fetch_ppocr.sh converts, which "auto" chooses among: a keyframe's
 // own 4:3 size and one holding 16:9 photos of 1280x720 unscaled.
 constexpr const char* kFetchedDetectorSizes[] = {"640x480", "1280x736"};
+const cv::Size kKeyframeSize(640, 480);
 
 cv::Size detector_size(const std::string& text) {
   int width = 0, height = 0;
@@ -60,17 +62,44 @@ DbParams db_params(const TextReadingConfig& params) {
   return db;
 }
 
-std::vector<PpocrDetector> make_detectors(const TextReadingConfig& params) {
+// ppocr_keyframe_detector: a converted detector tuned to a smaller input than a keyframe's, its
+// size from the .json beside it (as the agent's semantic model), for the images "auto" would
+// give the fetched 640x480 file.
+SizedPpocrDetector make_keyframe_detector(const TextReadingConfig& params) {
+  const std::string what = "ppocr keyframe detector (analysis.text.ppocr_keyframe_detector)";
+  const std::string path = vision::locate_model(params.ppocr.keyframe_detector, what);
+  const cv::Size input = vision::read_segmenter_info(path).input_size;
+  if (input.width > kKeyframeSize.width || input.height > kKeyframeSize.height ||
+      input.width % 32 || input.height % 32)
+    throw StartupError(what + ": " + path + " takes " + std::to_string(input.width) + "x" +
+                       std::to_string(input.height) +
+                       ", not sides multiples of 32 within a keyframe's 640x480");
+  return {PpocrDetector(path, input, db_params(params), stand_in_layers(params)), kKeyframeSize};
+}
+
+std::vector<SizedPpocrDetector> make_detectors(const TextReadingConfig& params) {
+  const bool automatic = params.ppocr.detector_size == "auto";
+  if (!automatic && !params.ppocr.keyframe_detector.empty())
+    throw StartupError("text reader: ppocr_keyframe_detector '" + params.ppocr.keyframe_detector +
+                       "' stands in for the fetched 640x480 file under ppocr_detector_size auto, "
+                       "but the size is '" +
+                       params.ppocr.detector_size + "'");
   std::vector<std::string> sizes = {params.ppocr.detector_size};
-  if (params.ppocr.detector_size == "auto")
-    sizes.assign(std::begin(kFetchedDetectorSizes), std::end(kFetchedDetectorSizes));
-  std::vector<PpocrDetector> detectors;
-  for (const auto& size : sizes)
-    detectors.emplace_back(locate(params, "ppocr_det_" + size + ".onnx", "ppocr detector"),
-                           detector_size(size), db_params(params), stand_in_layers(params));
-  std::sort(detectors.begin(), detectors.end(), [](const auto& a, const auto& b) {
-    return a.input_size().area() < b.input_size().area();
-  });
+  if (automatic) sizes.assign(std::begin(kFetchedDetectorSizes), std::end(kFetchedDetectorSizes));
+  std::vector<SizedPpocrDetector> detectors;
+  for (const auto& size : sizes) {
+    const cv::Size input = detector_size(size);
+    if (automatic && input == kKeyframeSize && !params.ppocr.keyframe_detector.empty()) {
+      detectors.push_back(make_keyframe_detector(params));
+      continue;
+    }
+    detectors.push_back(
+        {PpocrDetector(locate(params, "ppocr_det_" + size + ".onnx", "ppocr detector"), input,
+                       db_params(params), stand_in_layers(params)),
+         input});
+  }
+  std::sort(detectors.begin(), detectors.end(),
+            [](const auto& a, const auto& b) { return a.holds.area() < b.holds.area(); });
   return detectors;
 }
 
@@ -118,10 +147,10 @@ PpocrReader::PpocrReader(const TextReadingConfig& params)
 }
 
 PpocrDetector& PpocrReader::detector_for(cv::Size image) {
-  for (auto& detector : detectors_)
-    if (detector.input_size().width >= image.width && detector.input_size().height >= image.height)
-      return detector;
-  return detectors_.back();
+  for (auto& sized : detectors_)
+    if (sized.holds.width >= image.width && sized.holds.height >= image.height)
+      return sized.detector;
+  return detectors_.back().detector;
 }
 
 std::vector<ReadWord> PpocrReader::read(const cv::Mat& bgr) {

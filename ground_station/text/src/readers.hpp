@@ -49,11 +49,18 @@ class DetectRecogniseReader final : public TextReader {
   std::map<std::pair<int, int>, std::unique_ptr<vision::DnnTextSegmenter>> segmenters_;
 };
 
+// A PP-OCRv4 detector and the largest image "auto" gives it: its own input, or a keyframe's
+// 640x480 for a keyframe detector tuned to a smaller input (ppocr_keyframe_detector).
+struct SizedPpocrDetector {
+  PpocrDetector detector;
+  cv::Size holds;
+};
+
 // PP-OCRv4: the DB detector finds text lines (at most `max_regions`, the largest), the SVTR
 // recogniser reads each, words are split at spaces. With ppocr_detector_size "auto" the
-// detector is the fetched size that holds the image unscaled (a 640x480 keyframe, a 1280x720
-// photo). Images smaller than a keyframe (word crops)
-// are read as one line without detection, as TesseractReader does.
+// detector is the one that holds the image (a 640x480 keyframe: the fetched 640x480 file or
+// ppocr_keyframe_detector; a 1280x720 photo: 1280x736). Images smaller than a keyframe (word
+// crops) are read as one line without detection, as TesseractReader does.
 class PpocrReader final : public TextReader {
  public:
   // Throws StartupError naming the first converted file that is missing or unusable.
@@ -65,14 +72,14 @@ class PpocrReader final : public TextReader {
                                         const std::vector<cv::Rect>& hints) override;
 
  private:
-  // The smallest detector that holds `image` unscaled, else the largest.
+  // The smallest detector that holds `image`, else the largest.
   PpocrDetector& detector_for(cv::Size image);
   // Recognises each line (the largest `max_regions`) and keeps the words keep_word() accepts:
   // the half of read() that read_with_hints() shares.
   std::vector<ReadWord> read_lines(const cv::Mat& image, std::vector<TextQuad> lines);
 
   TextReadingConfig params_;
-  std::vector<PpocrDetector> detectors_;  // by input area, smallest first
+  std::vector<SizedPpocrDetector> detectors_;  // by the area they hold, smallest first
   PpocrRecognizer recognizer_;
   std::unique_ptr<PpocrDetector> hint_detector_;  // region_hints other than "off"
 };

@@ -47,6 +47,7 @@ void visit(V& v, TextReadingConfig& c) {
   v.field("region_hint_padding", c.ppocr.region_hint_padding, between(0.0, 4.0));
   v.field("ppocr_models", c.ppocr.models);
   v.field("ppocr_detector_size", c.ppocr.detector_size, detector_size_check());
+  v.field("ppocr_keyframe_detector", c.ppocr.keyframe_detector);
   v.field("ppocr_binary_threshold", c.ppocr.binary_threshold, between(0.0, 1.0));
   v.field("ppocr_box_threshold", c.ppocr.box_threshold, between(0.0, 1.0));
   v.field("ppocr_unclip_ratio", c.ppocr.unclip_ratio, between(0.0, 10.0));

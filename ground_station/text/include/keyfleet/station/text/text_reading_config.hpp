@@ -39,6 +39,12 @@ struct PpocrSettings {
   // 1280x736), else the largest. On the demo's keyframes 1280x736 read no more sign words than
   // 640x480 and more fragments, at 1.6x the CPU.
   std::string detector_size = "auto";
+  // With detector_size "auto": the detector of images that fit a keyframe (640x480), in place of
+  // the fetched 640x480 file: a detector tuned to a smaller input (models/ppocr/tune_detector.py),
+  // found as every model is (vision::locate_model), its input size from the .json beside it;
+  // each such image is letterboxed into that size. "" = the fetched 640x480 file. Refused with a
+  // fixed detector_size.
+  std::string keyframe_detector = "";
   double binary_threshold = 0.3;  // 0..1: text probability of a text pixel
   double box_threshold = 0.6;     // 0..1: min mean probability inside a kept line box
   double unclip_ratio = 1.5;      // line boxes grown by area * ratio / perimeter px
