@@ -14,8 +14,8 @@ teacher already is and only has to adapt its filters to text two thirds the size
 cores do in half an hour.
 
 The pack is models/mininet/distill_pack.py's folder. Views: models/mininet/distill.py's (windows
-of real and generated frames, flips, brightness, contrast, grey, motion blur) at the teacher's
-size; the student reads each view resized bilinearly to its own size (as the agent's blob resize
+of real and generated frames, a third of them whole frames or --whole-views of them, flips,
+brightness, contrast, grey, motion blur) at the teacher's size; the student reads each view resized bilinearly to its own size (as the agent's blob resize
 does), both with ImageNet's mean and std as the agent feeds the detector. Target: the teacher's
 text kernels (its map over DB's binary threshold, 0.3), a student pixel text where the kernels
 cover at least half of it: binary, as DB's own training targets are (a run on the averaged soft
