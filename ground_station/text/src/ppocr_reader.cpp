@@ -89,7 +89,7 @@ std::vector<SizedPpocrDetector> make_detectors(const TextReadingConfig& params) 
   std::vector<SizedPpocrDetector> detectors;
   for (const auto& size : sizes) {
     const cv::Size input = detector_size(size);
-    if (automatic && input == kKeyframeSize && !params.ppocr.keyframe_detector.empty()) {
+    if (input == kKeyframeSize && !params.ppocr.keyframe_detector.empty()) {  // "auto" (above)
       detectors.push_back(make_keyframe_detector(params));
       continue;
     }
