@@ -6,6 +6,7 @@
 #include <benchmark/benchmark.h>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <exception>
@@ -129,6 +130,61 @@ BENCHMARK(BM_AnalyseKeyframe)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(40);
+
+// The place step a keyframe, one part at a time, one thread: arg 0 = grey conversion and ORB
+// (the station's 1000 features), 1 = the CNN descriptor (PlaceNet), 2 = retrieval, verification
+// and adding to the database (which grows over the flight's keyframes, then starts again).
+void BM_PlaceSteps(benchmark::State& state) {
+  const AnalysisConfig config = config_with(false, true, 0);
+  auto describer = make_configured_place_describer(config.places);
+  OrbParams orb;
+  orb.features = config.places.orb_features;
+  const JpegCodec codec(90);
+  std::vector<cv::Mat> images;
+  for (const auto& job : keyframes().jobs) images.push_back(codec.decode(job.jpeg).image);
+  std::vector<PlaceView> views;
+  if (state.range(0) == 2) {
+    for (const cv::Mat& image : images) {
+      cv::Mat grey;
+      cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+      views.push_back(
+          {extract_orb(grey, orb), describer ? describer->describe(image) : std::vector<float>{}});
+    }
+  }
+  const auto& jobs = keyframes().jobs;
+  auto places = make_configured_place_recognizer(config.places);
+  std::size_t i = 0;
+  for (auto _ : state) {
+    const std::size_t k = i++ % images.size();
+    if (state.range(0) == 0) {
+      cv::Mat grey;
+      cv::cvtColor(images[k], grey, cv::COLOR_BGR2GRAY);
+      benchmark::DoNotOptimize(extract_orb(grey, orb).keypoints.size());
+    } else if (state.range(0) == 1) {
+      benchmark::DoNotOptimize(describer->describe(images[k]).size());
+    } else {
+      if (k == 0) {
+        state.PauseTiming();
+        places = make_configured_place_recognizer(config.places);
+        state.ResumeTiming();
+      }
+      const KeyframeKey& key = jobs[k].key;
+      const auto outcome =
+          places->recognise(views[k], not_a_recent_neighbour(key, jobs[k].capture_time_ns,
+                                                             config.places.same_robot_exclusion_s));
+      places->add(key, jobs[k].capture_time_ns, views[k]);
+      benchmark::DoNotOptimize(outcome.checked.size());
+    }
+  }
+}
+BENCHMARK(BM_PlaceSteps)
+    ->ArgNames({"orb0_descriptor1_recognise2"})
+    ->Arg(0)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(60);
 
 // The whole flight through the pool with everything on (the station's defaults): keyframes per
 // second sustained with 1 (the default) and 2 workers, reading with ppocr or tesseract.

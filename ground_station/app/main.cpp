@@ -30,6 +30,7 @@ int main(int argc, char** argv) {
   keyfleet::block_termination_signals();
   keyfleet::keep_created_files_private();
   keyfleet::raise_open_file_limit();
+  keyfleet::keep_image_buffers_in_heap();  // a keyframe's temporaries, not fresh pages each time
   keyfleet::ProcessOptions options;
   CLI::App app{"keyfleet ground station: stores and reports the fleet's keyframes"};
   keyfleet::add_process_options(app, options, "station YAML config");

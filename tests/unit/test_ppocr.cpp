@@ -166,6 +166,33 @@ TEST(PpocrCropQuad, RejectsDegenerateAndAbsurdQuads) {
 
 // ---------------------------------------------------------------- start-up errors
 
+// The detector's input in one pass is the blob OpenCV's convertTo, subtract, divide and
+// blobFromImage made of the letterboxed image (padded with 0), to the bit; a reused blob of
+// another size is remade and one of the same size repadded.
+TEST(PpocrDetectorInput, OnePassGivesTheBlobOpenCvsStepsGave) {
+  const auto reference = [](const cv::Mat& bgr, cv::Size input) {
+    cv::Mat normalised;
+    bgr.convertTo(normalised, CV_32FC3, 1.0 / 255.0);
+    normalised -= cv::Scalar(0.485f, 0.456f, 0.406f);
+    cv::divide(normalised, cv::Scalar(0.229f, 0.224f, 0.225f), normalised);
+    cv::Mat padded(input, CV_32FC3, cv::Scalar::all(0));
+    normalised.copyTo(padded(cv::Rect(cv::Point(0, 0), bgr.size())));
+    return cv::dnn::blobFromImage(padded);
+  };
+  cv::Mat blob;
+  for (const auto& [image, input] : {std::pair{cv::Size(640, 480), cv::Size(640, 480)},
+                                     std::pair{cv::Size(600, 333), cv::Size(640, 480)},
+                                     std::pair{cv::Size(320, 256), cv::Size(320, 256)},
+                                     std::pair{cv::Size(250, 256), cv::Size(320, 256)}}) {
+    cv::Mat bgr(image, CV_8UC3);
+    cv::randu(bgr, 0, 256);
+    ppocr::fill_input_planes(bgr, input, blob);
+    const cv::Mat expected = reference(bgr, input);
+    ASSERT_EQ(blob.total(), expected.total()) << image;
+    EXPECT_EQ(cv::norm(blob, expected, cv::NORM_INF), 0.0) << image << " into " << input;
+  }
+}
+
 TEST(PpocrReaderStartup, MissingModelFolderNamesTheFile) {
   auto config = ppocr_config();
   config.ppocr.models = "/nonexistent/ppocr";
@@ -313,6 +340,38 @@ TEST(PpocrReaderWithModels, KeyframeDetectorReadsKeyframesOnly) {
   EXPECT_EQ(photo_words[0].text, "HARBOUR");
   ASSERT_EQ(photo_before.size(), 1u);
   EXPECT_EQ(photo_words[0].quad, photo_before[0].quad);
+}
+
+// A detector built on first use (the 1280x736 file under "auto") is only parsed and its map's
+// shape checked at start: a corrupt file is refused then, naming it; the first image builds it
+// and it finds what a detector built at once finds.
+TEST(PpocrReaderWithModels, DetectorBuiltOnFirstUseFindsWhatOneBuiltAtOnceFinds) {
+  KEYFLEET_REQUIRE_PPOCR_MODELS();
+  using Build = PpocrDetector::Build;
+  const vision::DnnLayers layers = vision::DnnLayers::in_float();
+  test::TempDir dir;
+  { std::ofstream(dir.file("corrupt.onnx")) << "not a network"; }
+  try {
+    PpocrDetector(dir.file("corrupt.onnx"), {1280, 736}, DbParams{}, layers, Build::kOnFirstUse);
+    ADD_FAILURE() << "a corrupt file was accepted";
+  } catch (const StartupError& e) {
+    EXPECT_NE(std::string(e.what()).find("corrupt.onnx"), std::string::npos) << e.what();
+  }
+  const std::string file = (*models / "ppocr_det_1280x736.onnx").string();
+  PpocrDetector later(file, {1280, 736}, DbParams{}, layers, Build::kOnFirstUse);
+  EXPECT_FALSE(later.built());
+  PpocrDetector now(file, {1280, 736}, DbParams{}, layers, Build::kNow);
+  EXPECT_TRUE(now.built());
+  cv::Mat photo(720, 1280, CV_8UC3, cv::Scalar(200, 210, 220));
+  cv::putText(photo, "HARBOUR", {300, 400}, cv::FONT_HERSHEY_DUPLEX, 2.0, cv::Scalar(30, 30, 30), 4,
+              cv::LINE_AA);
+  EXPECT_TRUE(later.detect(cv::Mat()).empty());
+  EXPECT_FALSE(later.built());  // an unusable image does not build it
+  const auto found = later.detect(photo), expected = now.detect(photo);
+  EXPECT_TRUE(later.built());
+  ASSERT_EQ(expected.size(), 1u);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0].quad, expected[0].quad);
 }
 
 // In float, keyfleet's stand-in layers give OpenCV's own outputs of both networks to float rounding
