@@ -31,4 +31,20 @@ std::unique_ptr<TextReader> make_configured_text_reader(const TextReadingConfig&
   return make_text_reader(config);
 }
 
+std::unique_ptr<TextReader> make_station_text_reader(TextReadingConfig& config,
+                                                     const Logger& logger) {
+  if (!config.enabled) return nullptr;
+  try {
+    return make_text_reader(config);
+  } catch (const EngineModelsMissing& e) {
+    if (config.fallback_engine.empty() || config.fallback_engine == config.engine) throw;
+    logger->warn(
+        "text reading: {}; reading with '{}' instead (analysis.text.fallback_engine; empty "
+        "refuses to start)",
+        e.what(), config.fallback_engine);
+    config.engine = config.fallback_engine;
+    return make_text_reader(config);
+  }
+}
+
 }  // namespace keyfleet::station

@@ -164,8 +164,6 @@ TEST(PpocrCropQuad, RejectsDegenerateAndAbsurdQuads) {
   EXPECT_TRUE(rotated);
 }
 
-// ---------------------------------------------------------------- start-up errors
-
 // The detector's input in one pass is the blob OpenCV's convertTo, subtract, divide and
 // blobFromImage made of the letterboxed image (padded with 0), to the bit; a reused blob of
 // another size is remade and one of the same size repadded.
@@ -192,6 +190,8 @@ TEST(PpocrDetectorInput, OnePassGivesTheBlobOpenCvsStepsGave) {
     EXPECT_EQ(cv::norm(blob, expected, cv::NORM_INF), 0.0) << image << " into " << input;
   }
 }
+
+// ---------------------------------------------------------------- start-up errors
 
 TEST(PpocrReaderStartup, MissingModelFolderNamesTheFile) {
   auto config = ppocr_config();

@@ -1,6 +1,7 @@
 // The station's analysis around the engines: the bounded pool and its overload policy, the
 // analysis tables (words with FTS5, features, matches), the map they feed, and a restart.
 #include <gtest/gtest.h>
+#include <spdlog/sinks/ostream_sink.h>
 
 #include <atomic>
 #include <condition_variable>
@@ -9,6 +10,7 @@
 #include <map>
 #include <mutex>
 #include <set>
+#include <sstream>
 
 #include "keyfleet/common/image_codec.hpp"
 #include "keyfleet/common/logging.hpp"
@@ -16,6 +18,7 @@
 #include "keyfleet/station/analysis_attempts.hpp"
 #include "keyfleet/station/analysis_exports.hpp"
 #include "keyfleet/station/analysis_pool.hpp"
+#include "keyfleet/station/analysis_setup.hpp"
 #include "keyfleet/station/analysis_store.hpp"
 #include "keyfleet/station/keyframe_analyzer.hpp"
 #include "keyfleet/station/keyframe_store.hpp"
@@ -465,6 +468,39 @@ TEST(AnalysisCrashGuard, AKeyframeWhoseAnalysisKillsTheStationIsSkippedAfterThre
   EXPECT_NE(detail.text(0).find("started 3 times"), std::string::npos) << detail.text(0);
   EXPECT_TRUE(KeyframeStore(database, SqliteDb::Mode::kReadOnly).load("poison", 0).has_value())
       << "the keyframe itself is kept";
+}
+
+// Where ppocr's fetched models are not installed (no npm registry), the station reads with its
+// fallback engine, saying once why and which file; with no fallback, or a start-up error that
+// is not about missing models, it refuses to start.
+TEST(StationTextReader, FallsBackOnlyWhereTheEnginesModelsAreMissing) {
+  std::ostringstream log;
+  const Logger logger = std::make_shared<spdlog::logger>(
+      "test", std::make_shared<spdlog::sinks::ostream_sink_mt>(log));
+  TextReadingConfig config;
+  config.engine = "ppocr";
+  config.ppocr.models = "/nonexistent/ppocr";
+  auto reader = make_station_text_reader(config, logger);
+  ASSERT_NE(reader, nullptr);
+  EXPECT_EQ(reader->name(), "tesseract");
+  EXPECT_EQ(config.engine, "tesseract");  // the next worker's reader starts it directly
+  EXPECT_NE(log.str().find("/nonexistent/ppocr/ppocr_det_640x480.onnx"), std::string::npos)
+      << log.str();
+  EXPECT_NE(log.str().find("reading with 'tesseract' instead"), std::string::npos) << log.str();
+
+  config.engine = "ppocr";
+  config.fallback_engine = "";
+  EXPECT_THROW(make_station_text_reader(config, logger), StartupError);
+  config.fallback_engine = "tesseract";
+  config.ppocr.detector_size = "650x480";  // refused for itself, not for a missing file
+  try {
+    make_station_text_reader(config, logger);
+    ADD_FAILURE() << "a bad detector size was read past";
+  } catch (const StartupError& e) {
+    EXPECT_NE(std::string(e.what()).find("650x480"), std::string::npos) << e.what();
+  }
+  config.enabled = false;
+  EXPECT_EQ(make_station_text_reader(config, logger), nullptr);
 }
 
 }  // namespace

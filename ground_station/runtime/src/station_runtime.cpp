@@ -102,7 +102,8 @@ struct StationRuntime::Parts {
   std::unique_ptr<web::DashboardServer> dashboard;
   std::string dashboard_url;
   Clock::time_point next_report;
-  double start_cpu_s = 0;  // the process's CPU (all threads) when it was ready
+  double start_cpu_s = 0;        // the process's CPU (all threads) when it was ready
+  std::string text_engine_note;  // the report's line where the fallback engine reads
   bool finished = false;
 };
 
@@ -124,12 +125,17 @@ StationRuntime::StationRuntime(StationConfig config, const StationFolders& folde
   const AnalysisConfig& analysis = c.analysis;
   p.places = make_configured_place_recognizer(analysis.places);
   std::vector<AnalysisPool::Step> steps;
+  TextReadingConfig text = analysis.text;  // its engine the fallback where ppocr's are missing
   for (int i = 0; i < analysis.workers; ++i) {
     auto analyzer = std::make_shared<KeyframeAnalyzer>(
-        make_configured_text_reader(analysis.text), p.places.get(),
+        make_station_text_reader(text, p.logger), p.places.get(),
         make_configured_place_describer(analysis.places), analysis, p.logger);
     steps.push_back([analyzer](const AnalysisJob& job) { return analyzer->analyse(job); });
   }
+  if (text.engine != analysis.text.engine)
+    p.text_engine_note = "  text read with '" + text.engine + "', not '" + analysis.text.engine +
+                         "': its models are not installed (the log says which; " +
+                         "scripts/fetch_ppocr.sh)\n";
   p.analysis_store = std::make_unique<AnalysisStore>(p.store.path());
   p.attempts = std::make_unique<AnalysisAttempts>(p.store.path());
   p.pool = std::make_unique<AnalysisPool>(
@@ -237,8 +243,10 @@ int StationRuntime::finish() {
     return write_bandwidth_report(report, p.folders.run_dir);
   });
   write_report("the analysis exports", [&] {
-    return "\n" + write_analysis_exports(*p.analysis_store, p.map, p.analysis->summary(),
-                                         p.folders.run_dir);
+    return "\n" +
+           write_analysis_exports(*p.analysis_store, p.map, p.analysis->summary(),
+                                  p.folders.run_dir) +
+           p.text_engine_note;
   });
   write_report("report.txt", [&] {
     write_file(fs::path(p.folders.run_dir) / "report.txt", table);

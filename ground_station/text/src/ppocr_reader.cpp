@@ -37,8 +37,8 @@ std::string locate(const TextReadingConfig& params, const std::string& file,
   try {
     return vision::locate_model(params.ppocr.models + "/" + file, what);
   } catch (const StartupError& e) {
-    throw StartupError(std::string(e.what()) +
-                       "; scripts/fetch_ppocr.sh downloads and converts the ppocr models");
+    throw EngineModelsMissing(std::string(e.what()) +
+                              "; scripts/fetch_ppocr.sh downloads and converts the ppocr models");
   }
 }
 

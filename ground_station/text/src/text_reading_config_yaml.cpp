@@ -23,10 +23,23 @@ static Check<std::string> detector_size_check() {
       "auto or WxH, sides multiples of 32 from 32 to 4096");
 }
 
+// An engine to read with where the configured one's models are missing, or empty (refuse).
+static Check<std::string> fallback_engine_check() {
+  return Check<std::string>(
+      [](const std::string& v) {
+        for (const char* engine : {"", "tesseract", "mininet+tesseract", "ppocr"})
+          if (v == engine) return std::string();
+        return std::string(
+            "must be empty (refuse to start) or tesseract, mininet+tesseract, ppocr");
+      },
+      "empty (refuse to start), tesseract, mininet+tesseract or ppocr");
+}
+
 template <class V>
 void visit(V& v, TextReadingConfig& c) {
   v.field("enabled", c.enabled);
   v.field("engine", c.engine);
+  v.field("fallback_engine", c.fallback_engine, fallback_engine_check());
   v.field("tessdata_dir", c.tesseract.tessdata_dir);
   v.field("language", c.tesseract.language);
   v.field("thresholding_method", c.tesseract.thresholding_method, between(0, 2));

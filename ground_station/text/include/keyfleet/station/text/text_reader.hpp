@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "keyfleet/common/error.hpp"
 #include "keyfleet/station/text/text_reading_config.hpp"
 
 namespace keyfleet::station {
@@ -26,6 +27,13 @@ std::array<cv::Point2f, 4> corners_of(const cv::Rect& rect);
 
 // `word.quad` where it has an area, else the corners of `word.box`.
 std::array<cv::Point2f, 4> outline_of(const ReadWord& word);
+
+// An engine's fetched models are not installed (the files scripts/fetch_ppocr.sh downloads and
+// converts): the one start-up error the station's fallback_engine stands in for.
+class EngineModelsMissing : public StartupError {
+ public:
+  using StartupError::StartupError;
+};
 
 class TextReader {
  public:

