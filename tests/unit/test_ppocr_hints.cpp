@@ -136,5 +136,23 @@ TEST(PpocrHintsStartup, UnknownModeIsRefused) {
   EXPECT_THROW(make_text_reader(hinted("sometimes")), StartupError);
 }
 
+// A hint detector size the fetch does not convert is refused as a setting, naming it, not taken
+// for a missing install (which the station's fallback engine would stand in for).
+TEST(PpocrHintsStartup, AnUnconvertedSizeIsRefusedAsTheSetting) {
+  KEYFLEET_REQUIRE_PPOCR_MODELS();
+  auto config = hinted("only");
+  config.ppocr.region_hint_detector_size = "416x320";
+  try {
+    make_text_reader(config);
+    ADD_FAILURE() << "an unconverted hint detector size was accepted";
+  } catch (const EngineModelsMissing& e) {
+    ADD_FAILURE() << "taken for a missing install: " << e.what();
+  } catch (const StartupError& e) {
+    EXPECT_NE(std::string(e.what()).find("region_hint_detector_size"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("ppocr_det_416x320.onnx"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace keyfleet::station

@@ -134,7 +134,15 @@ std::unique_ptr<PpocrDetector> make_hint_detector(const TextReadingConfig& param
     throw StartupError("text reader: region_hints '" + params.ppocr.region_hints +
                        "' is not off, only or first");
   const std::string file = "ppocr_det_" + params.ppocr.region_hint_detector_size + ".onnx";
-  return std::make_unique<PpocrDetector>(locate(params, file, "ppocr region-hint detector"),
+  std::string path;
+  try {
+    path = locate(params, file, "ppocr region-hint detector");
+  } catch (const EngineModelsMissing& e) {
+    // The detectors above were found: a size the fetch does not convert is the setting's error,
+    // not a missing install, so the station's fallback engine does not stand in for it.
+    throw StartupError(std::string(e.what()) + " (analysis.text.region_hint_detector_size)");
+  }
+  return std::make_unique<PpocrDetector>(path,
                                          detector_size(params.ppocr.region_hint_detector_size),
                                          db_params(params), stand_in_layers(params));
 }
