@@ -9,6 +9,7 @@
 
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/vision/dnn_layers.hpp"
+#include "keyfleet/vision/model_files.hpp"
 
 namespace keyfleet::station {
 namespace {
@@ -78,8 +79,7 @@ PpocrDetector::PpocrDetector(const std::string& model_path, cv::Size input_size,
   const std::string size =
       std::to_string(input_size.width) + "x" + std::to_string(input_size.height);
   try {
-    cv::dnn::Net net = cv::dnn::readNetFromONNX(model_path);
-    if (net.empty()) throw StartupError("ppocr detector: '" + model_path + "' holds no network");
+    cv::dnn::Net net = vision::load_onnx_network(model_path, "ppocr detector");
     std::vector<int> ids;
     std::vector<std::vector<cv::dnn::MatShape>> in, out;
     net.getLayersShapes(cv::dnn::MatShape{1, 3, input_size.height, input_size.width}, ids, in, out);
@@ -98,16 +98,7 @@ void PpocrDetector::build() {
   // same map to float rounding in about 0.7x the time). OpenCV creates the layers on import and
   // on the first pass (the probe below), so the scope covers both.
   const vision::DnnLayersScope stand_ins(layers_);
-  cv::dnn::Net net;
-  try {
-    net = cv::dnn::readNetFromONNX(model_path_);
-  } catch (const cv::Exception& e) {
-    throw StartupError("ppocr detector: cannot load '" + model_path_ + "': " + e.what());
-  }
-  if (net.empty()) throw StartupError("ppocr detector: '" + model_path_ + "' holds no network");
-  net.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);
-  net.setPreferableTarget(cv::dnn::DNN_TARGET_CPU);
-  net_ = net;
+  net_ = vision::load_onnx_network(model_path_, "ppocr detector");
   // One pass on a blank input: a file converted for another size fails here, not per image.
   const int shape[] = {1, 3, input_size_.height, input_size_.width};
   if (probability_map(cv::Mat(4, shape, CV_32F, cv::Scalar(0))).empty()) {

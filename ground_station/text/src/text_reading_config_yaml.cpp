@@ -2,7 +2,10 @@
 // for the three visitors. The engines' sections keep the flat keys they always had.
 #include "keyfleet/station/text/text_reading_config_yaml.hpp"
 
+#include <algorithm>
 #include <regex>
+
+#include "keyfleet/station/text/text_reader.hpp"
 
 namespace keyfleet {
 
@@ -23,16 +26,19 @@ static Check<std::string> detector_size_check() {
       "auto or WxH, sides multiples of 32 from 32 to 4096");
 }
 
-// An engine to read with where the configured one's models are missing, or empty (refuse).
+// An engine to read with where the configured one's models are missing (the factory's list),
+// or empty (refuse).
 static Check<std::string> fallback_engine_check() {
+  std::string engines;
+  for (const auto& name : station::text_reader_engines()) engines += ", " + name;
   return Check<std::string>(
-      [](const std::string& v) {
-        for (const char* engine : {"", "tesseract", "mininet+tesseract", "ppocr"})
-          if (v == engine) return std::string();
-        return std::string(
-            "must be empty (refuse to start) or tesseract, mininet+tesseract, ppocr");
+      [engines](const std::string& v) {
+        const auto known = station::text_reader_engines();
+        if (v.empty() || std::find(known.begin(), known.end(), v) != known.end())
+          return std::string();
+        return "must be empty (refuse to start) or one of the engines" + engines.substr(1);
       },
-      "empty (refuse to start), tesseract, mininet+tesseract or ppocr");
+      "empty (refuse to start) or an engine:" + engines.substr(1));
 }
 
 template <class V>
