@@ -4,9 +4,9 @@
 // float), the stride-2 first layer, the depthwise one, with and without bias and a fused chain of
 // activations; in float, and in bfloat16 where the CPU has it (then what OpenCV computes from the
 // input and weights rounded to bfloat16); the 1x1 one in int8 (the quantized product, near
-// OpenCV's); Power, Sigmoid, the inner product, softmax and global average pooling; other
-// geometries stay OpenCV's, and the shipped MiniNet gives the same masks in a batch as one frame
-// at a time.
+// OpenCV's); Power, Sigmoid, the inner product, softmax, global average pooling, nearest
+// upsampling and the element-wise sum; other geometries stay OpenCV's, and the shipped MiniNet
+// gives the same masks in a batch as one frame at a time.
 #include <gtest/gtest.h>
 
 #include <opencv2/dnn/shape_utils.hpp>
@@ -829,6 +829,85 @@ TEST(NearestUpsamplingStandIn, MatchesOpenCvsResize) {
   std::string type;
   run_one_layer(params, input, DnnLayers::in_float(), &type);
   EXPECT_EQ(type, "Resize");
+}
+
+// A net of one Eltwise layer over inputs "a", "b" (and "c" where given), then `then` (an
+// activation OpenCV fuses into it, or a Concat whose slice it writes) where given.
+cv::Mat run_sum(cv::dnn::LayerParams params, const std::vector<cv::Mat>& inputs, DnnLayers layers,
+                std::string* type, const char* then = nullptr) {
+  std::optional<DnnLayersScope> scope;
+  if (layers.any()) scope.emplace(layers);
+  cv::dnn::Net net;
+  std::vector<cv::String> names = {"a", "b", "c"};
+  names.resize(inputs.size());
+  net.setInputsNames(names);
+  params.name = "sum";
+  const int id = net.addLayer(params.name, "Eltwise", params);
+  for (std::size_t i = 0; i < inputs.size(); ++i) net.connect(0, int(i), id, int(i));
+  if (then) {
+    cv::dnn::LayerParams next;
+    next.type = next.name = then;
+    net.addLayerToPrev(next.name, next.type, next);
+  }
+  for (std::size_t i = 0; i < inputs.size(); ++i) net.setInput(inputs[i], names[i]);
+  const cv::Mat out = net.forward().clone();
+  if (type) *type = net.getLayer(params.name)->type;
+  return out;
+}
+
+// The FPN's additions against OpenCV's Eltwise, to the bit: the detector's 96 x 120 x 160, planes
+// narrower than a vector, three inputs, a batch of two, a ReLU fused into the sum, a sum written
+// into a slice of a concatenation; products and weighted sums stay OpenCV's.
+TEST(ElementwiseSumStandIn, MatchesOpenCvsEltwise) {
+  struct Case {
+    std::vector<int> shape;
+    int inputs;
+    const char* then;
+  };
+  const std::vector<Case> cases = {{{1, 96, 120, 160}, 2, nullptr},
+                                   {{1, 3, 1, 5}, 2, nullptr},
+                                   {{2, 7, 9, 13}, 3, nullptr},
+                                   {{1, 24, 30, 40}, 2, "ReLU"},
+                                   {{2, 5, 4, 6}, 2, "Concat"}};
+  cv::RNG rng(31);
+  for (const Case& c : cases) {
+    std::vector<cv::Mat> inputs;
+    for (int i = 0; i < c.inputs; ++i) {
+      inputs.emplace_back(c.shape, CV_32F);
+      rng.fill(inputs.back(), cv::RNG::UNIFORM, -5.0, 5.0);
+    }
+    cv::dnn::LayerParams params;
+    params.set("operation", "sum");
+    std::string type;
+    const cv::Mat got = run_sum(params, inputs, DnnLayers::in_float(), &type, c.then);
+    const cv::Mat expected = run_sum(params, inputs, DnnLayers::opencv(), nullptr, c.then);
+    const std::string label = cv::dnn::toString(cv::dnn::shape(inputs[0])) + " x" +
+                              std::to_string(c.inputs) + (c.then ? std::string(" ") + c.then : "");
+    EXPECT_EQ(type, "KeyfleetSum") << label;
+    ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected)) << label;
+    EXPECT_EQ(cv::norm(got, expected, cv::NORM_INF), 0) << label;
+    if (c.then && std::string(c.then) == "ReLU") {
+      double least = 0;
+      cv::minMaxLoc(got.reshape(1, 1), &least);
+      EXPECT_GE(least, 0) << label;  // the fused activation ran
+    }
+  }
+  std::vector<cv::Mat> inputs(2, cv::Mat({1, 2, 3, 4}, CV_32F, cv::Scalar(2)));
+  for (const char* operation : {"prod", "max"}) {
+    cv::dnn::LayerParams params;
+    params.set("operation", operation);
+    std::string type;
+    run_sum(params, inputs, DnnLayers::in_float(), &type);
+    EXPECT_EQ(type, "Eltwise") << operation;
+  }
+  cv::dnn::LayerParams weighted;
+  weighted.set("operation", "sum");
+  const float coeff[] = {1.f, -1.f};
+  weighted.set("coeff", cv::dnn::DictValue::arrayReal(coeff, 2));
+  std::string type;
+  const cv::Mat difference = run_sum(weighted, inputs, DnnLayers::in_float(), &type);
+  EXPECT_EQ(type, "Eltwise");
+  EXPECT_EQ(cv::norm(difference, cv::NORM_INF), 0);
 }
 
 }  // namespace

@@ -8,8 +8,9 @@
 // softmax (at run time) over another axis or as log-softmax. And the global average pooling of
 // squeeze-and-excitation blocks (PP-OCR's detector has ten) summed in SIMD lanes, where OpenCV 4.6
 // runs its general pooling loop; other poolings stay OpenCV's. And nearest-neighbour upsampling
-// by powers of two (nearest_upsampling.cpp; other resizes stay OpenCV's). Internal to
-// keyfleet_vision.
+// by powers of two (nearest_upsampling.cpp; other resizes stay OpenCV's), and the element-wise
+// sum of inputs of one shape (elementwise_sum.cpp; products, maxima and weighted sums stay
+// OpenCV's). Internal to keyfleet_vision.
 #include <opencv2/dnn.hpp>
 
 namespace keyfleet::vision {
@@ -18,5 +19,6 @@ cv::Ptr<cv::dnn::Layer> create_inner_product(cv::dnn::LayerParams& params);
 cv::Ptr<cv::dnn::Layer> create_softmax(cv::dnn::LayerParams& params);
 cv::Ptr<cv::dnn::Layer> create_pooling(cv::dnn::LayerParams& params);
 cv::Ptr<cv::dnn::Layer> create_resize(cv::dnn::LayerParams& params);
+cv::Ptr<cv::dnn::Layer> create_eltwise(cv::dnn::LayerParams& params);
 
 }  // namespace keyfleet::vision

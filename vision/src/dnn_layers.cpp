@@ -657,7 +657,8 @@ DnnLayersScope::DnnLayersScope(DnnLayers layers) : lock_(scope_mutex()) {
       {layers.inner_product, {"InnerProduct", create_inner_product}},
       {layers.vectorised_softmax, {"Softmax", create_softmax}},
       {layers.global_average_pool, {"Pooling", create_pooling}},
-      {layers.nearest_upsampling, {"Resize", create_resize}}};
+      {layers.nearest_upsampling, {"Resize", create_resize}},
+      {layers.vectorised_sum, {"Eltwise", create_eltwise}}};
   try {
     for (const auto& [use, layer] : chosen)
       if (use) {

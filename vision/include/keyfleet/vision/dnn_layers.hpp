@@ -57,6 +57,7 @@ struct DnnLayers {
   bool global_average_pool = true;  // each plane's mean in SIMD (squeeze-and-excitation blocks)
   bool vectorised_sigmoid = true;   // the logistic function with OpenCV's vectorised exp
   bool nearest_upsampling = true;   // nearest Resize by powers of two: rows widened and copied
+  bool vectorised_sum = true;       // Add of inputs of one shape, plane by plane in SIMD
   // The 1x1 convolutions with 64 or more input and output channels in 8-bit integers
   // (pointwise_int8.hpp: weights per output channel, the input over its own range on every
   // call): about 1.8x the multiply-adds per cycle of float on AVX2; outputs move by about 1 % of
@@ -64,16 +65,16 @@ struct DnnLayers {
   bool int8_pointwise = false;
   static DnnLayers opencv() {
     return {false, false, false, false, false, false, false,
-            false, false, false, false, false, false};
+            false, false, false, false, false, false, false};
   }
   // All stand-ins in float: OpenCV's outputs to float rounding, on any CPU.
   static DnnLayers in_float() {
-    return {true, true, true, true, false, true, true, true, true, true, true, true, true};
+    return {true, true, true, true, false, true, true, true, true, true, true, true, true, true};
   }
   bool any() const {
     return vectorised_selu || depthwise || subpixel_deconvolution || pointwise || dense_3x3 ||
            vectorised_hard_swish || vectorised_power || inner_product || vectorised_softmax ||
-           global_average_pool || vectorised_sigmoid || nearest_upsampling;
+           global_average_pool || vectorised_sigmoid || nearest_upsampling || vectorised_sum;
   }
 };
 
