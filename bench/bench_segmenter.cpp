@@ -30,8 +30,14 @@ void BM_Segment(benchmark::State& state) {
     state.SkipWithError("this CPU has no AVX512-BF16");
     return;
   }
-  const vision::DnnLayers layers{state.range(0) >= 1, state.range(0) >= 2, state.range(0) >= 3,
-                                 state.range(0) >= 3, state.range(0) >= 4, state.range(0) >= 3};
+  // From OpenCV's own layers up, as the labels say (a brace list of the first few flags left the
+  // others at their defaults, every other stand-in on, even in "OpenCV layers").
+  const int level = int(state.range(0));
+  vision::DnnLayers layers =
+      level >= 3 ? vision::DnnLayers::in_float() : vision::DnnLayers::opencv();
+  layers.vectorised_selu = level >= 1;
+  layers.depthwise = level >= 2;
+  layers.bfloat16_products = level >= 4;
   const int threads = int(state.range(1));
   const cv::Size size(512, int(state.range(2)));
   vision::DnnTextSegmenter net(model(), threads, size, layers);
