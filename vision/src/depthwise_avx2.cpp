@@ -21,28 +21,56 @@ struct Tap {
   float weight;
 };
 
-// Output columns [x, x + 8 * kVectors) of the row whose taps start at `in`; the last vector
-// stores only `last_lanes` of its columns (8: all).
-template <int kVectors>
-__attribute__((target("avx2,fma"))) inline void vectors(const std::vector<Tap>& taps,
-                                                        const float* in, float bias, float* out,
+// Output columns [x, x + 8 * kVectors) of kRows rows whose taps start at `in` (rows `in_row`
+// floats apart in the input, `out_row` in the output); the last vector of each row stores only
+// `last_lanes` of its columns (8: all). Each output is the bias plus its taps in order, whatever
+// kRows: two rows at a time give eight independent sums, enough to keep both FMA units busy
+// (one row of four waited on each sum's previous product).
+template <int kRows, int kVectors>
+__attribute__((target("avx2,fma"))) inline void vectors(const Tap* taps, int tap_count,
+                                                        const float* in, std::size_t in_row,
+                                                        float bias, float* out, std::size_t out_row,
                                                         int last_lanes) {
-  __m256 sum[kVectors];
-  for (int v = 0; v < kVectors; ++v) sum[v] = _mm256_set1_ps(bias);
-  for (const Tap& tap : taps) {
-    const __m256 weight = _mm256_set1_ps(tap.weight);
-    const float* s = in + tap.offset;
-    for (int v = 0; v < kVectors; ++v)
-      sum[v] = _mm256_fmadd_ps(weight, _mm256_loadu_ps(s + 8 * v), sum[v]);
-  }
-  for (int v = 0; v + 1 < kVectors; ++v) _mm256_storeu_ps(out + 8 * v, sum[v]);
-  if (last_lanes == 8) {
-    _mm256_storeu_ps(out + 8 * (kVectors - 1), sum[kVectors - 1]);
-    return;
+  __m256 sum[kRows][kVectors];
+  for (int r = 0; r < kRows; ++r)
+    for (int v = 0; v < kVectors; ++v) sum[r][v] = _mm256_set1_ps(bias);
+  for (int t = 0; t < tap_count; ++t) {
+    const __m256 weight = _mm256_set1_ps(taps[t].weight);
+    const float* s = in + taps[t].offset;
+    for (int r = 0; r < kRows; ++r)
+      for (int v = 0; v < kVectors; ++v)
+        sum[r][v] = _mm256_fmadd_ps(weight, _mm256_loadu_ps(s + r * in_row + 8 * v), sum[r][v]);
   }
   const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256i mask = _mm256_cmpgt_epi32(_mm256_set1_epi32(last_lanes), lanes);
-  _mm256_maskstore_ps(out + 8 * (kVectors - 1), mask, sum[kVectors - 1]);
+  for (int r = 0; r < kRows; ++r) {
+    float* o = out + r * out_row;
+    for (int v = 0; v + 1 < kVectors; ++v) _mm256_storeu_ps(o + 8 * v, sum[r][v]);
+    if (last_lanes == 8)
+      _mm256_storeu_ps(o + 8 * (kVectors - 1), sum[r][kVectors - 1]);
+    else
+      _mm256_maskstore_ps(o + 8 * (kVectors - 1), mask, sum[r][kVectors - 1]);
+  }
+}
+
+// kRows output rows from `in`/`out`: whole blocks of 32 columns, then the rest in one call.
+template <int kRows>
+__attribute__((target("avx2,fma"))) inline void output_rows(const Tap* taps, int tap_count,
+                                                            const float* in, std::size_t in_row,
+                                                            float bias, float* out,
+                                                            std::size_t out_row, int wo) {
+  int x = 0;
+  for (; x + 32 <= wo; x += 32)
+    vectors<kRows, 4>(taps, tap_count, in + x, in_row, bias, out + x, out_row, 8);
+  const int rest = wo - x;
+  if (rest <= 0) return;
+  const int last = rest - (rest - 1) / 8 * 8;  // the last vector's columns, 1..8
+  switch ((rest + 7) / 8) {
+    case 1: vectors<kRows, 1>(taps, tap_count, in + x, in_row, bias, out + x, out_row, last); break;
+    case 2: vectors<kRows, 2>(taps, tap_count, in + x, in_row, bias, out + x, out_row, last); break;
+    case 3: vectors<kRows, 3>(taps, tap_count, in + x, in_row, bias, out + x, out_row, last); break;
+    default: vectors<kRows, 4>(taps, tap_count, in + x, in_row, bias, out + x, out_row, last);
+  }
 }
 
 // The plane with a zero border (pt rows above, pl columns left) as two planes of `row` floats a
@@ -136,8 +164,8 @@ void depthwise_plane_avx2(const float* src, int h, int w, const float* kernel, i
   }
   const float* plane = bordered.data();
   const std::size_t odd_plane = std::size_t(height) * row;
-  std::vector<Tap> taps;
-  taps.reserve(std::size_t(kh) * kw);
+  thread_local std::vector<Tap> taps;
+  taps.clear();
   for (int ky = 0; ky < kh; ++ky)
     for (int kx = 0; kx < kw; ++kx) {
       if (kernel[ky * kw + kx] == 0.f) continue;
@@ -145,13 +173,15 @@ void depthwise_plane_avx2(const float* src, int h, int w, const float* kernel, i
       const int offset = sw == 2 ? int((column % 2) * odd_plane) + column / 2 : column;
       taps.push_back({ky * dh * row + offset, kernel[ky * kw + kx]});
     }
-  for (int y = 0; y < ho; ++y) {
-    const float* in = plane + std::size_t(y) * sh * row;
-    float* out = dst + std::size_t(y) * wo;
-    int x = 0;
-    for (; x + 32 <= wo; x += 32) vectors<4>(taps, in + x, bias, out + x, 8);
-    for (; x < wo; x += 8) vectors<1>(taps, in + x, bias, out + x, std::min(8, wo - x));
-  }
+  const std::size_t in_row = std::size_t(sh) * row;
+  const int tap_count = int(taps.size());
+  int y = 0;
+  for (; y + 2 <= ho; y += 2)
+    output_rows<2>(taps.data(), tap_count, plane + y * in_row, in_row, bias,
+                   dst + std::size_t(y) * wo, std::size_t(wo), wo);
+  if (y < ho)
+    output_rows<1>(taps.data(), tap_count, plane + y * in_row, in_row, bias,
+                   dst + std::size_t(y) * wo, std::size_t(wo), wo);
 #else
   (void)src, (void)h, (void)w, (void)kernel, (void)kh, (void)kw, (void)dh, (void)dw, (void)pt;
   (void)pl, (void)sh, (void)sw, (void)bias, (void)dst, (void)ho, (void)wo;
