@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "dense_layers.hpp"
+#include "opencv_backed_layer.hpp"
 
 namespace keyfleet::vision {
 namespace {
@@ -43,13 +44,10 @@ bool planes_contiguous(const cv::Mat& m) {
 // ((x0 + x1) + x2 ...: the same floats), then applies a fused activation to the plane. Anything
 // else (products, maxima, coefficients other than 1, inputs of other shapes or channel counts)
 // runs the OpenCV layer this one holds, which also gives the shapes.
-class ElementwiseSumLayer final : public cv::dnn::Layer {
+class ElementwiseSumLayer final : public OpenCvBackedLayer<cv::dnn::EltwiseLayer> {
  public:
   ElementwiseSumLayer(const cv::dnn::LayerParams& params, cv::Ptr<cv::dnn::EltwiseLayer> opencv)
-      : opencv_(std::move(opencv)) {
-    setParamsFrom(params);
-    type = "KeyfleetSum";
-  }
+      : OpenCvBackedLayer(params, std::move(opencv), "KeyfleetSum") {}
 
   static bool handles(const cv::dnn::LayerParams& params) {
     if (params.has("operation")) {
@@ -67,16 +65,6 @@ class ElementwiseSumLayer final : public cv::dnn::Layer {
         if (coeff.get<float>(i) != 1.f) return false;
     }
     return true;
-  }
-
-  bool getMemoryShapes(const std::vector<cv::dnn::MatShape>& inputs, int required,
-                       std::vector<cv::dnn::MatShape>& outputs,
-                       std::vector<cv::dnn::MatShape>& internals) const override {
-    return opencv_->getMemoryShapes(inputs, required, outputs, internals);
-  }
-
-  void finalize(cv::InputArrayOfArrays inputs, cv::OutputArrayOfArrays outputs) override {
-    opencv_->finalize(inputs, outputs);
   }
 
   bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
@@ -119,7 +107,6 @@ class ElementwiseSumLayer final : public cv::dnn::Layer {
     return true;
   }
 
-  cv::Ptr<cv::dnn::EltwiseLayer> opencv_;
   cv::Ptr<cv::dnn::ActivationLayer> activation_;
 };
 

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "dense_layers.hpp"
+#include "opencv_backed_layer.hpp"
 
 namespace keyfleet::vision {
 namespace {
@@ -45,28 +46,15 @@ void repeat_columns(const float* src, int n, int k, float* dst) {
 // exactly, as in OpenCV's arithmetic: each input row is widened once and copied ky times.
 // Any other geometry (and every other mode) runs the OpenCV layer this one holds, which also
 // gives the shapes.
-class NearestUpsamplingLayer final : public cv::dnn::Layer {
+class NearestUpsamplingLayer final : public OpenCvBackedLayer<cv::dnn::Layer> {
  public:
   NearestUpsamplingLayer(const cv::dnn::LayerParams& params, cv::Ptr<cv::dnn::Layer> opencv)
-      : opencv_(std::move(opencv)) {
-    setParamsFrom(params);
-    type = "KeyfleetNearestUpsampling";
-  }
+      : OpenCvBackedLayer(params, std::move(opencv), "KeyfleetNearestUpsampling") {}
 
   static bool handles(const cv::dnn::LayerParams& params) {
     return params.get<cv::String>("interpolation", "") == "nearest" &&
            !params.get<bool>("align_corners", false) &&
            !params.get<bool>("half_pixel_centers", false);
-  }
-
-  bool getMemoryShapes(const std::vector<cv::dnn::MatShape>& inputs, int required,
-                       std::vector<cv::dnn::MatShape>& outputs,
-                       std::vector<cv::dnn::MatShape>& internals) const override {
-    return opencv_->getMemoryShapes(inputs, required, outputs, internals);
-  }
-
-  void finalize(cv::InputArrayOfArrays inputs, cv::OutputArrayOfArrays outputs) override {
-    opencv_->finalize(inputs, outputs);
   }
 
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
@@ -110,8 +98,6 @@ class NearestUpsamplingLayer final : public cv::dnn::Layer {
     return out.size[2] % in.size[2] == 0 && out.size[3] % in.size[3] == 0 &&
            power_of_two(out.size[2] / in.size[2]) && power_of_two(out.size[3] / in.size[3]);
   }
-
-  cv::Ptr<cv::dnn::Layer> opencv_;
 };
 
 }  // namespace
