@@ -170,9 +170,9 @@ void BM_PlaceSteps(benchmark::State& state) {
       }
       const KeyframeKey& key = jobs[k].key;
       const auto outcome =
-          places->recognise(views[k], not_a_recent_neighbour(key, jobs[k].capture_time_ns,
-                                                             config.places.same_robot_exclusion_s));
-      places->add(key, jobs[k].capture_time_ns, views[k]);
+          places->recognise_then_add(key, jobs[k].capture_time_ns, views[k],
+                                     not_a_recent_neighbour(key, jobs[k].capture_time_ns,
+                                                            config.places.same_robot_exclusion_s));
       benchmark::DoNotOptimize(outcome.checked.size());
     }
   }

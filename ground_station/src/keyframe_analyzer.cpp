@@ -56,11 +56,11 @@ AnalysisResult KeyframeAnalyzer::analyse(const AnalysisJob& job) {
     PlaceView view{extract_orb(grey, orb_), {}};
     if (describer_) view.descriptor = describer_->describe(image);
     const PlaceOutcome outcome =
-        places_->recognise(view, not_a_recent_neighbour(job.key, job.capture_time_ns,
-                                                        config_.places.same_robot_exclusion_s));
+        places_->recognise_then_add(job.key, job.capture_time_ns, view,
+                                    not_a_recent_neighbour(job.key, job.capture_time_ns,
+                                                           config_.places.same_robot_exclusion_s));
     result.place = outcome.best;
     result.candidates_checked = outcome.checked.size();
-    places_->add(job.key, job.capture_time_ns, view);
     result.features = std::move(view.features);
     result.descriptor = std::move(view.descriptor);
     result.places_ms = elapsed_ms(start);

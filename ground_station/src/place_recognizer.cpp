@@ -88,13 +88,23 @@ PlaceMatch VerifiedPlaceRecognizer::verify(const OrbFeatures& query,
   return match;
 }
 
+BowVector VerifiedPlaceRecognizer::words(const PlaceView& view, FeatureVector& direct) const {
+  return view.features.descriptors.empty()
+             ? BowVector{}
+             : vocabulary_->transform(view.features.descriptors, &direct);
+}
+
 PlaceOutcome VerifiedPlaceRecognizer::recognise(const PlaceView& view,
                                                 const PlaceFilter& filter) const {
-  PlaceOutcome outcome;
   FeatureVector direct;
-  const BowVector bow = view.features.descriptors.empty()
-                            ? BowVector{}
-                            : vocabulary_->transform(view.features.descriptors, &direct);
+  const BowVector bow = words(view, direct);
+  return recognise_words(view, bow, direct, filter);
+}
+
+PlaceOutcome VerifiedPlaceRecognizer::recognise_words(const PlaceView& view, const BowVector& bow,
+                                                      const FeatureVector& direct,
+                                                      const PlaceFilter& filter) const {
+  PlaceOutcome outcome;
   std::shared_lock lock(mutex_);
   const Ranked ranked = rank(view, bow, static_cast<std::size_t>(config_.candidates), filter);
   for (std::size_t i = 0; i < ranked.entries.size(); ++i) {
@@ -129,7 +139,24 @@ std::vector<KeyframeKey> VerifiedPlaceRecognizer::retrieve(const PlaceView& view
 void VerifiedPlaceRecognizer::add(const KeyframeKey& key, std::int64_t capture_time_ns,
                                   const PlaceView& view) {
   FeatureVector direct;
-  const BowVector bow = vocabulary_->transform(view.features.descriptors, &direct);
+  const BowVector bow = words(view, direct);
+  add_words(key, capture_time_ns, view, bow, std::move(direct));
+}
+
+PlaceOutcome VerifiedPlaceRecognizer::recognise_then_add(const KeyframeKey& key,
+                                                         std::int64_t capture_time_ns,
+                                                         const PlaceView& view,
+                                                         const PlaceFilter& filter) {
+  FeatureVector direct;
+  const BowVector bow = words(view, direct);
+  PlaceOutcome outcome = recognise_words(view, bow, direct, filter);
+  add_words(key, capture_time_ns, view, bow, std::move(direct));
+  return outcome;
+}
+
+void VerifiedPlaceRecognizer::add_words(const KeyframeKey& key, std::int64_t capture_time_ns,
+                                        const PlaceView& view, const BowVector& bow,
+                                        FeatureVector direct) {
   std::unique_lock lock(mutex_);
   database_.add(bow, std::move(direct));  // entry ids count up from 0, like entries_
   if (descriptors_) {

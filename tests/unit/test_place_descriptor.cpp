@@ -1,7 +1,8 @@
 // The holistic place descriptor (the second seed's CNN feature): the shipped PlaceNet loads and
 // reproduces the reference recorded at export, tells same-place views of a generated two-day
-// street from other places, the exact index and the rank fusion on hand-made inputs, and a
-// restarted station's index finds what the first run stored.
+// street from other places, the exact index and the rank fusion on hand-made inputs, a
+// restarted station's index finds what the first run stored, and the station's one-call step
+// (recognise, then add) answers as the two calls.
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
@@ -22,6 +23,7 @@
 #include "keyfleet/station/geometry/match_verifier.hpp"
 #include "keyfleet/station/place_recognizer.hpp"
 #include "keyfleet/station/places/descriptor_index.hpp"
+#include "keyfleet/station/places/orb_extractor.hpp"
 #include "keyfleet/station/station_analysis.hpp"
 #include "keyfleet/vision/model_files.hpp"
 #include "keyfleet/vision/place_describer.hpp"
@@ -209,9 +211,10 @@ TEST(PlaceRetrievalModes, EveryConfiguredModeHasItsObjectAndSaysWhatItNeeds) {
   EXPECT_EQ(fusion.combine({3, 7, 9}, {7, 9, 5}), station::fuse_ranks({3, 7, 9}, {7, 9, 5}));
 }
 
-std::unique_ptr<station::VerifiedPlaceRecognizer> cnn_recognizer(int dimensions) {
+std::unique_ptr<station::VerifiedPlaceRecognizer> cnn_recognizer(
+    int dimensions, PlaceRetrieval retrieval = PlaceRetrieval::kCnn) {
   PlaceRecognitionConfig config;
-  config.retrieval = PlaceRetrieval::kCnn;
+  config.retrieval = retrieval;
   auto vocabulary = std::make_shared<const station::OrbVocabulary>(
       station::OrbVocabulary::load(vision::locate_model(config.vocabulary, "place vocabulary")));
   return std::make_unique<station::VerifiedPlaceRecognizer>(
@@ -251,6 +254,49 @@ TEST(PlaceIndexRestart, ARestartedStationRetrievesByTheDescriptorsItStored) {
   EXPECT_EQ(keys[0], (KeyframeKey{"drone_0", 2}));
   EXPECT_EQ(keys[1], (KeyframeKey{"drone_0", 1}));
   EXPECT_EQ(keys[2], (KeyframeKey{"drone_0", 0}));
+}
+
+// The station's step with each keyframe, recognise then add, done in one call (the bag of words
+// computed once) answers as the two calls do, view after view of overlapping crops of one
+// textured wall: the same candidates, scores, matches and accepted places.
+TEST(PlaceRecognizerStep, RecogniseThenAddAnswersAsTheTwoCallsDo) {
+  cv::Mat wall(480, 1500, CV_8UC3, cv::Scalar(128, 128, 128));
+  cv::RNG rng(41);
+  for (int i = 0; i < 900; ++i) {
+    const cv::Point centre(rng.uniform(0, wall.cols), rng.uniform(0, wall.rows));
+    const cv::Scalar colour(rng.uniform(0, 255), rng.uniform(0, 255), rng.uniform(0, 255));
+    if (i % 2)
+      cv::circle(wall, centre, rng.uniform(3, 25), colour, cv::FILLED);
+    else
+      cv::rectangle(wall, centre, centre + cv::Point(rng.uniform(4, 40), rng.uniform(4, 40)),
+                    colour, cv::FILLED);
+  }
+  auto separate = cnn_recognizer(0, PlaceRetrieval::kBow);
+  auto together = cnn_recognizer(0, PlaceRetrieval::kBow);
+  std::size_t accepted = 0;
+  for (int i = 0; i < 8; ++i) {
+    const KeyframeKey key{i % 2 ? "drone_1" : "drone_0", std::uint64_t(i)};
+    const station::PlaceView view{
+        station::extract_orb(wall(cv::Rect(i * 110, 0, 640, 480)), station::OrbParams{}), {}};
+    const station::PlaceOutcome a = separate->recognise(view, {});
+    separate->add(key, i, view);
+    const station::PlaceOutcome b = together->recognise_then_add(key, i, view, {});
+    ASSERT_EQ(a.checked.size(), b.checked.size()) << "view " << i;
+    for (std::size_t c = 0; c < a.checked.size(); ++c) {
+      EXPECT_EQ(a.checked[c].other, b.checked[c].other) << "view " << i;
+      EXPECT_EQ(a.checked[c].matches, b.checked[c].matches) << "view " << i;
+      EXPECT_EQ(a.checked[c].inliers, b.checked[c].inliers) << "view " << i;
+      EXPECT_EQ(a.checked[c].bow_score, b.checked[c].bow_score) << "view " << i;
+    }
+    ASSERT_EQ(a.best.has_value(), b.best.has_value()) << "view " << i;
+    if (a.best) {
+      EXPECT_EQ(a.best->other, b.best->other) << "view " << i;
+      ++accepted;
+    }
+  }
+  EXPECT_EQ(separate->size(), 8u);
+  EXPECT_EQ(together->size(), 8u);
+  EXPECT_GE(accepted, 4u);  // the views overlap: most find the one before them
 }
 
 TEST(PlaceDescriberInfo, RejectsADescriptionWithBadValues) {

@@ -42,6 +42,14 @@ class PlaceRecognizer {
   virtual std::vector<KeyframeKey> retrieve(const PlaceView& view, std::size_t max_results,
                                             const PlaceFilter& filter) const = 0;
   virtual void add(const KeyframeKey& key, std::int64_t capture_time_ns, const PlaceView& view) = 0;
+  // What the station does with each keyframe: recognise it, then add it. An implementation may
+  // share the work of the two (the bag of words is computed once).
+  virtual PlaceOutcome recognise_then_add(const KeyframeKey& key, std::int64_t capture_time_ns,
+                                          const PlaceView& view, const PlaceFilter& filter) {
+    PlaceOutcome outcome = recognise(view, filter);
+    add(key, capture_time_ns, view);
+    return outcome;
+  }
   virtual std::size_t size() const = 0;
 };
 
@@ -68,6 +76,8 @@ class VerifiedPlaceRecognizer final : public PlaceRecognizer {
   std::vector<KeyframeKey> retrieve(const PlaceView& view, std::size_t max_results,
                                     const PlaceFilter& filter) const override;
   void add(const KeyframeKey& key, std::int64_t capture_time_ns, const PlaceView& view) override;
+  PlaceOutcome recognise_then_add(const KeyframeKey& key, std::int64_t capture_time_ns,
+                                  const PlaceView& view, const PlaceFilter& filter) override;
   std::size_t size() const override;
   std::size_t missing_descriptors() const;
 
@@ -86,6 +96,12 @@ class VerifiedPlaceRecognizer final : public PlaceRecognizer {
               const PlaceFilter& filter) const;
   PlaceMatch verify(const OrbFeatures& query, const FeatureVector& query_direct,
                     std::uint32_t entry) const;
+  // The view's bag of words and direct index (empty for a view without features).
+  BowVector words(const PlaceView& view, FeatureVector& direct) const;
+  PlaceOutcome recognise_words(const PlaceView& view, const BowVector& bow,
+                               const FeatureVector& direct, const PlaceFilter& filter) const;
+  void add_words(const KeyframeKey& key, std::int64_t capture_time_ns, const PlaceView& view,
+                 const BowVector& bow, FeatureVector direct);
 
   std::shared_ptr<const OrbVocabulary> vocabulary_;
   std::unique_ptr<MatchVerifier> verifier_;
