@@ -30,7 +30,8 @@ void add(const float* a, const float* b, float* dst, int n) {
   for (; i < n; ++i) dst[i] = a[i] + b[i];
 }
 
-// The planes of image n, channel c of a 4-D float blob whose planes are each contiguous.
+// Whether m is a 4-D float blob whose planes are each contiguous (its images may lie apart: an
+// output may be a slice of a concatenation's channels).
 bool planes_contiguous(const cv::Mat& m) {
   return m.dims == 4 && m.type() == CV_32F && m.step[3] == sizeof(float) &&
          m.step[2] == m.step[3] * std::size_t(m.size[3]) &&
@@ -39,11 +40,11 @@ bool planes_contiguous(const cv::Mat& m) {
 
 // ONNX Add (and Sum) of inputs of one shape: OpenCV 4.6's Eltwise layer adds them in blocks of
 // 4,096 values that visit every channel's plane in turn, one element at a time (PP-OCR's detector
-// at 640x480 adds two 96 x 120 x 160 maps in its FPN: 2.7 ms on an AMD EPYC, where a pass over the
-// three maps costs about 1). This one adds whole planes in SIMD, in OpenCV's order
-// ((x0 + x1) + x2 ...: the same floats), then applies a fused activation to the plane. Anything
-// else (products, maxima, coefficients other than 1, inputs of other shapes or channel counts)
-// runs the OpenCV layer this one holds, which also gives the shapes.
+// at 640x480 adds two 96 x 120 x 160 maps in its FPN; what that cost and what this saves:
+// docs/results/2026-11-28-sums-and-depthwise.md). This one adds whole planes in SIMD, in
+// OpenCV's order ((x0 + x1) + x2 ...: the same floats), then applies a fused activation to the
+// plane. Anything else (products, maxima, coefficients other than 1, inputs of other shapes or
+// channel counts) runs the OpenCV layer this one holds, which also gives the shapes.
 class ElementwiseSumLayer final : public OpenCvBackedLayer<cv::dnn::EltwiseLayer> {
  public:
   ElementwiseSumLayer(const cv::dnn::LayerParams& params, cv::Ptr<cv::dnn::EltwiseLayer> opencv)
