@@ -2,6 +2,8 @@
 
 #include <opencv2/core.hpp>
 
+#include <cstdint>
+
 #if defined(__GNUC__) && defined(__x86_64__)
 #include <immintrin.h>
 #define KEYFLEET_PRODUCT_X86 1
@@ -19,7 +21,7 @@ template <int kRows, int kVectors, int kTaps>
 __attribute__((target("avx2,fma"))) void tile(const float* a, std::size_t a_tap_stride,
                                               const float* b, const int* shifts, int depth,
                                               std::size_t plane, const float* bias, float* out,
-                                              std::size_t out_stride) {
+                                              std::size_t out_stride, bool stream) {
   __m256 acc[kRows][kVectors];
 #pragma GCC unroll 16
   for (int r = 0; r < kRows; ++r)
@@ -42,6 +44,13 @@ __attribute__((target("avx2,fma"))) void tile(const float* a, std::size_t a_tap_
       }
     }
   }
+  if (stream && (reinterpret_cast<std::uintptr_t>(out) & 31) == 0 && out_stride % 8 == 0) {
+#pragma GCC unroll 16
+    for (int r = 0; r < kRows; ++r)
+#pragma GCC unroll 16
+      for (int v = 0; v < kVectors; ++v) _mm256_stream_ps(out + r * out_stride + 8 * v, acc[r][v]);
+    return;
+  }
 #pragma GCC unroll 16
   for (int r = 0; r < kRows; ++r)
 #pragma GCC unroll 16
@@ -51,19 +60,23 @@ __attribute__((target("avx2,fma"))) void tile(const float* a, std::size_t a_tap_
 template <int kRows, int kVectors>
 void tile_for_taps(int taps, const float* a, std::size_t a_tap_stride, const float* b,
                    const int* shifts, int depth, std::size_t plane, const float* bias, float* out,
-                   std::size_t out_stride) {
+                   std::size_t out_stride, bool stream) {
   switch (taps) {
     case 1:
-      tile<kRows, kVectors, 1>(a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride);
+      tile<kRows, kVectors, 1>(a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride,
+                               stream);
       break;
     case 2:
-      tile<kRows, kVectors, 2>(a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride);
+      tile<kRows, kVectors, 2>(a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride,
+                               stream);
       break;
     case 9:
-      tile<kRows, kVectors, 9>(a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride);
+      tile<kRows, kVectors, 9>(a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride,
+                               stream);
       break;
     default:
-      tile<kRows, kVectors, 4>(a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride);
+      tile<kRows, kVectors, 4>(a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride,
+                               stream);
   }
 }
 #endif
@@ -75,6 +88,12 @@ bool product_supported() {
   return cv::checkHardwareSupport(CV_CPU_AVX2) && cv::checkHardwareSupport(CV_CPU_FMA3);
 #else
   return false;
+#endif
+}
+
+void stores_fence() {
+#ifdef KEYFLEET_PRODUCT_X86
+  _mm_sfence();
 #endif
 }
 
@@ -96,21 +115,24 @@ ProductBlock float_product_block(int rows, int columns) {
 
 void product_block(ProductBlock block, int taps, const float* a, std::size_t a_tap_stride,
                    const float* b, const int* shifts, int depth, std::size_t plane,
-                   const float* bias, float* out, std::size_t out_stride) {
+                   const float* bias, float* out, std::size_t out_stride, bool stream) {
 #ifdef KEYFLEET_PRODUCT_X86
   switch (block.rows) {
     case 6:
-      tile_for_taps<6, 2>(taps, a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride);
+      tile_for_taps<6, 2>(taps, a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride,
+                          stream);
       break;
     case 4:
-      tile_for_taps<4, 3>(taps, a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride);
+      tile_for_taps<4, 3>(taps, a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride,
+                          stream);
       break;
     default:
-      tile_for_taps<2, 6>(taps, a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride);
+      tile_for_taps<2, 6>(taps, a, a_tap_stride, b, shifts, depth, plane, bias, out, out_stride,
+                          stream);
   }
 #else
   (void)block, (void)taps, (void)a, (void)a_tap_stride, (void)b, (void)shifts, (void)depth,
-      (void)plane, (void)bias, (void)out, (void)out_stride;
+      (void)plane, (void)bias, (void)out, (void)out_stride, (void)stream;
   CV_Error(cv::Error::StsNotImplemented, "keyfleet's matrix product needs x86-64 with AVX2");
 #endif
 }

@@ -26,8 +26,15 @@ struct ProductBlock {
 ProductBlock float_product_block(int rows, int columns);
 
 // taps: 1, 2, 4 or 9; shifts[taps]. Reads columns [0, block.columns) of b at each shift.
+// `stream`: the block's rows are written past the caches (non-temporal stores, where `out` and
+// `out_stride` keep its vectors 32-byte aligned; plain stores elsewhere): for a large output that
+// nothing reads back before the next layer, whose lines need not be read in first. The thread
+// that streamed calls stores_fence() before another reads them.
 void product_block(ProductBlock block, int taps, const float* a, std::size_t a_tap_stride,
                    const float* b, const int* shifts, int depth, std::size_t plane,
-                   const float* bias, float* out, std::size_t out_stride);
+                   const float* bias, float* out, std::size_t out_stride, bool stream = false);
+
+// Orders this thread's streamed stores before its later ones (x86's sfence; nothing elsewhere).
+void stores_fence();
 
 }  // namespace keyfleet::vision

@@ -94,6 +94,13 @@ void PointwiseConvolution::run_in_place(const float* src, int pixels, float* dst
     products_.resize(std::size_t(cout_) * width);
   }
   const int total = summed(), depth = summed_chunk(total, 1, width);
+  // A large output that nothing reads back here (no activation to apply, the input channels
+  // summed in one chunk) is written past the caches: most of the time of a layer with few inputs
+  // and many outputs (PP-OCR's neck, 12 -> 96 channels, 7.4 MB at 640x480) went to reading in
+  // the lines its first stores missed, as many streams as outputs.
+  constexpr std::size_t kStreamedBytes = std::size_t(4) << 20;
+  const bool stream = !activation && depth >= total && !bfloat16_ &&
+                      std::size_t(cout_) * pixels * sizeof(float) >= kStreamedBytes;
   constexpr int kStripe = 4;
   const int stripes = (blocks + kStripe - 1) / kStripe;
   const int zero_shift = 0;
@@ -112,7 +119,7 @@ void PointwiseConvolution::run_in_place(const float* src, int pixels, float* dst
             const std::size_t a = (std::size_t(rb) * total + k0) * block_.rows;
             const float* bias = k0 == 0 ? bias_.data() + rb * block_.rows : nullptr;
             in.multiply(block_, 1, packed_, a, 0, k0, n0, &zero_shift, k, bias,
-                        base + std::size_t(rb) * block_.rows * stride, stride);
+                        base + std::size_t(rb) * block_.rows * stride, stride, stream && !is_tail);
           }
         }
       }
@@ -123,6 +130,7 @@ void PointwiseConvolution::run_in_place(const float* src, int pixels, float* dst
       finish_columns(nullptr, pixels, cout_, first * width, std::min(pixels, last * width), dst,
                      pixels, activation);
     }
+    if (stream) stores_fence();  // the streamed lines visible before the layer ends
   });
 }
 

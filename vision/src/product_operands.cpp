@@ -106,14 +106,14 @@ void ProductInput::use(const float* src, std::size_t plane) {
 void ProductInput::multiply(ProductBlock block, int taps, const PackedWeights& weights,
                             std::size_t a, std::size_t tap_stride, int k0, int n0,
                             const int* shifts, int depth, const float* bias, float* out,
-                            std::size_t out_stride) const {
+                            std::size_t out_stride, bool stream) const {
   const std::size_t at = std::size_t(k0) * plane_ + n0;
   if (pairs_)
     product_block_bf16(block, taps, weights.pairs.data() + a, tap_stride, pairs_ + at, shifts,
                        depth, plane_, bias, out, out_stride);
   else
     product_block(block, taps, weights.floats.data() + a, tap_stride, floats_ + at, shifts, depth,
-                  plane_, bias, out, out_stride);
+                  plane_, bias, out, out_stride, stream);
 }
 
 }  // namespace keyfleet::vision

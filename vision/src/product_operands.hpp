@@ -87,9 +87,10 @@ class ProductInput {
   // out (block.rows x block.columns, rows out_stride apart) = (bias or out) + the weights'
   // block at `a` times this input from summed index k0 and column n0, over depth summed indices
   // and `taps` taps at their shifts (avx2_product.hpp, bf16_product.hpp).
+  // `stream`: in float, written past the caches (product_block's); bfloat16 ignores it.
   void multiply(ProductBlock block, int taps, const PackedWeights& weights, std::size_t a,
                 std::size_t tap_stride, int k0, int n0, const int* shifts, int depth,
-                const float* bias, float* out, std::size_t out_stride) const;
+                const float* bias, float* out, std::size_t out_stride, bool stream = false) const;
 
  private:
   const float* floats_ = nullptr;
