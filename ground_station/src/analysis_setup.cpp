@@ -33,9 +33,8 @@ std::unique_ptr<TextReader> make_configured_text_reader(const TextReadingConfig&
 
 std::unique_ptr<TextReader> make_station_text_reader(TextReadingConfig& config,
                                                      const Logger& logger) {
-  if (!config.enabled) return nullptr;
   try {
-    return make_text_reader(config);
+    return make_configured_text_reader(config);
   } catch (const EngineModelsMissing& e) {
     if (config.fallback_engine.empty() || config.fallback_engine == config.engine) throw;
     logger->warn(
@@ -43,7 +42,7 @@ std::unique_ptr<TextReader> make_station_text_reader(TextReadingConfig& config,
         "refuses to start)",
         e.what(), config.fallback_engine);
     config.engine = config.fallback_engine;
-    return make_text_reader(config);
+    return make_configured_text_reader(config);
   }
 }
 
