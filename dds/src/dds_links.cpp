@@ -1,12 +1,16 @@
 // AgentLink and StationLink over Fast DDS: the only place that moves bytes on the wire.
+#include <fastrtps/rtps/common/WriteParams.h>
 #include <fastdds/dds/core/condition/GuardCondition.hpp>
 #include <fastdds/dds/core/condition/WaitSet.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
 #include <algorithm>
 #include <chrono>
+#include <deque>
+#include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <string>
 #include <utility>
@@ -27,6 +31,8 @@ using dds::Participant;
 using dds::Stream;
 namespace fdds = eprosima::fastdds::dds;
 using eprosima::fastrtps::Duration_t;
+using eprosima::fastrtps::rtps::SampleIdentity;
+using eprosima::fastrtps::rtps::WriteParams;
 
 Duration_t to_duration(std::chrono::milliseconds ms) {
   return Duration_t(static_cast<long double>(ms.count()) / 1000.0L);
@@ -108,9 +114,23 @@ class DdsAgentLink final : public AgentLink {
     std::vector<KeyframeAck> acks;
     wire::KeyframeAck sample;
     fdds::SampleInfo info;
+    // An acknowledgement names the keyframe sample it answers. The station keeps its recent
+    // ones for readers that match late, so this reader also gets those of an earlier
+    // participant or process of this robot (before a rejoin or a restart): they answered
+    // samples of another writer, perhaps with another image under the same number, and are
+    // not taken for this writer's.
+    const auto& writer = session_->keyframe_writer->guid();
+    std::size_t foreign = 0;
     while (session_->ack_reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
-      if (info.valid_data && sample.robot_id() == robot_id) acks.push_back(dds::from_wire(sample));
+      if (!info.valid_data || sample.robot_id() != robot_id) continue;
+      if (info.related_sample_identity.writer_guid() != writer) {
+        ++foreign;
+        continue;
+      }
+      acks.push_back(dds::from_wire(sample));
     }
+    if (foreign > 0)
+      logger_->debug("{} acknowledgement(s) of an earlier writer's keyframes not taken", foreign);
     return acks;
   }
 
@@ -210,6 +230,41 @@ class RobotTopicDiscovery final : public fdds::DomainParticipantListener {
   fdds::GuardCondition wake_;
 };
 
+// Which DDS sample brought each (robot, sequence number) the station took last, so that its
+// acknowledgement names that sample (a robot takes only acknowledgements of its current writer's
+// samples). Bounded: an acknowledgement follows its keyframe's take within a step, and one whose
+// storage failed is never written, so the oldest entries go first.
+class DeliveredSamples {
+ public:
+  void remember(const std::string& robot_id, std::uint64_t sequence, const SampleIdentity& id) {
+    Key key{robot_id, sequence};
+    Entry& entry = entries_[key];
+    entry.sample = id;
+    ++entry.takes;
+    order_.push_back(std::move(key));
+    if (order_.size() <= kCapacity) return;
+    const auto oldest = entries_.find(order_.front());
+    if (--oldest->second.takes == 0) entries_.erase(oldest);
+    order_.pop_front();
+  }
+
+  std::optional<SampleIdentity> find(const std::string& robot_id, std::uint64_t sequence) const {
+    const auto it = entries_.find(Key{robot_id, sequence});
+    if (it == entries_.end()) return std::nullopt;
+    return it->second.sample;
+  }
+
+ private:
+  static constexpr std::size_t kCapacity = 4096;
+  using Key = std::pair<std::string, std::uint64_t>;
+  struct Entry {
+    SampleIdentity sample;
+    unsigned takes = 0;  // entries of `order_` naming this key
+  };
+  std::map<Key, Entry> entries_;
+  std::deque<Key> order_;
+};
+
 class DdsStationLink final : public StationLink {
  public:
   DdsStationLink(const DdsSettings& settings, Logger logger,
@@ -238,6 +293,8 @@ class DdsStationLink final : public StationLink {
                  ReturnCode_t::RETCODE_OK) {
         if (!info.valid_data) continue;
         const std::uint64_t bytes = keyframe_type_->getSerializedSizeProvider(&keyframe_sample_)();
+        delivered_.remember(keyframe_sample_.robot_id(), keyframe_sample_.sequence_number(),
+                            info.sample_identity);
         inbox.keyframes.push_back(
             {dds::from_wire(std::move(keyframe_sample_)), bytes, robot.robot_id});
       }
@@ -260,7 +317,10 @@ class DdsStationLink final : public StationLink {
     dds::to_wire(ack, ack_sample_);
     PublishResult result;
     result.serialized_bytes = ack_type_->getSerializedSizeProvider(&ack_sample_)();
-    result.ok = ack_writer_->write(&ack_sample_);
+    WriteParams params;
+    if (const auto sample = delivered_.find(ack.robot_id, ack.sequence_number))
+      params.related_sample_identity(*sample);
+    result.ok = ack_writer_->write(&ack_sample_, params);
     if (!result.ok) result.error = "DDS write failed on " + std::string(kKeyframeAckTopic);
     return result;
   }
@@ -310,6 +370,7 @@ class DdsStationLink final : public StationLink {
   std::vector<RobotReaders> robots_;
   std::vector<fdds::DataReader*> readers_;
   fdds::DataWriter* ack_writer_ = nullptr;
+  DeliveredSamples delivered_;
   fdds::WaitSet waitset_;
   wire::Keyframe keyframe_sample_;
   wire::KeyframeAck ack_sample_;

@@ -47,6 +47,15 @@ constexpr long double kCappedWriterBlockingS = 0.005;
 constexpr std::int32_t kKeyframeReaderSamples = 8;
 constexpr std::int32_t kStatsReaderSamples = 4;
 
+// The station's acknowledgements stay in its writer's history for a robot whose acknowledgement
+// reader matches late: over a lossy radio with DDS-Security the ack path's endpoints can match
+// seconds after the keyframe path (seen 7 s at 250 kbit/s with 10 % loss), and an ack written
+// before then would be lost to a volatile reader, the keyframe sent again after
+// outbox.resend_after_s. 256 are the fleet's last few seconds to tens of seconds of keyframes;
+// an ack is about 40 bytes of sample.
+constexpr std::int32_t kAckWriterHistory = 256;
+constexpr std::int32_t kAckReaderHistory = 1024;
+
 void bound_history(fdds::DataReaderQos& qos, std::int32_t samples) {
   qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
   qos.history().depth = samples;
@@ -295,8 +304,8 @@ fdds::DataWriter* Participant::writer(fdds::Topic* topic, Stream stream) {
       }
       break;
     case Stream::kAcks:
-      qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
-      qos.history().depth = 256;
+      qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+      qos.history().depth = kAckWriterHistory;
       break;
   }
   fdds::DataWriter* writer = publisher_->create_datawriter(topic, qos);
@@ -325,9 +334,9 @@ fdds::DataReader* Participant::reader(fdds::Topic* topic, Stream stream) {
       bound_history(qos, kStatsReaderSamples);
       break;
     case Stream::kAcks:
-      qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+      qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
       qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-      qos.history().depth = 1024;
+      qos.history().depth = kAckReaderHistory;
       break;
   }
   fdds::DataReader* reader = subscriber_->create_datareader(topic, qos);

@@ -26,7 +26,9 @@ namespace fdds = eprosima::fastdds::dds;
 enum class Stream {
   kKeyframes,  // reliable, volatile, KEEP_LAST(depth) on the writer, KEEP_LAST 8 on the reader
   kStats,      // reliable, transient-local, latest few samples (4 on the reader)
-  kAcks,       // reliable, volatile, a deep KEEP_LAST
+  kAcks,       // reliable, transient-local: the station's recent acknowledgements reach a robot
+               // whose reader matched after they were written (each names the sample it
+               // answers, so a robot takes only those of its current keyframe writer)
 };
 
 class Participant {
