@@ -155,7 +155,9 @@ TEST(SubpixelDeconvolution, MatchesOpenCvsTransposedConvolution) {
       // the 2x2 geometry works in bands of rows: 8 rows of 40 at 96 outputs, a partial one last
       {24, 96, 20, 40, true, true},
       {24, 1, 20, 40, true, true},  // PP-OCR's last layer: 2x2 with one output, its own path
-      {24, 2, 3, 33, false, true}};
+      {24, 2, 3, 33, false, true},
+      // PP-OCR's first 2x2 layer at 640x480: 7.4 MB of output, written past the caches
+      {24, 24, 120, 160, true, true}};
   cv::RNG rng(11);
   // MiniNet's 3x3 (padding 1, output padding 1) and PP-OCR's DB head's 2x2 (no padding).
   for (const Geometry g : {Geometry{3, 2, 1, 1}, Geometry{2, 2, 0, 0}})
@@ -214,14 +216,15 @@ TEST(PointwiseStandIn, MatchesOpenCvsConvolution) {
   // pixel counts that fill whole column blocks (16, 24, 48; 32, 64, 96) and that do not (in
   // float, whole row blocks: a remainder block of its own, alone, after several stripes, with the
   // input channels summed in several chunks); odd input channels; an output of 7.4 MB without
-  // an activation (PP-OCR's 12 -> 96 at 640x480: written past the caches).
+  // an activation (PP-OCR's 12 -> 96 at 640x480: written past the caches) and one of 10 MB with
+  // one (16 -> 32, activated in a small buffer and streamed, a remainder block after).
   const std::vector<Shape> shapes = {
       {12, 96, 120, 160, true, false}, {3, 12, 8, 16, true, true},    {12, 24, 4, 12, false, false},
       {5, 4, 3, 8, true, false},       {7, 2, 6, 8, false, true},     {9, 5, 3, 7, true, true},
       {386, 386, 4, 8, true, false},   {300, 7, 1, 1, false, true},   {28, 1, 5, 11, true, false},
       {31, 16, 9, 21, true, true},     {96, 48, 8, 12, false, true},  {192, 8, 2, 24, true, false},
       {25, 9, 1, 1, true, true},       {200, 12, 13, 11, true, true}, {600, 6, 7, 9, false, true},
-      {16, 32, 10, 9, true, false}};
+      {16, 32, 10, 9, true, false},    {16, 32, 250, 320, true, true}};
   cv::RNG rng(14);
   for (const bool bfloat16 : precisions())
     for (const Shape& s : shapes) {

@@ -2,6 +2,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <algorithm>
 #include <cstdint>
 
 #if defined(__GNUC__) && defined(__x86_64__)
@@ -96,6 +97,16 @@ void stores_fence() {
   _mm_sfence();
 #endif
 }
+
+#ifdef KEYFLEET_PRODUCT_X86
+__attribute__((target("avx2"))) void stream_floats(const float* src, float* dst, int n) {
+  int i = 0;
+  for (; i + 8 <= n; i += 8) _mm256_stream_ps(dst + i, _mm256_loadu_ps(src + i));
+  for (; i < n; ++i) dst[i] = src[i];
+}
+#else
+void stream_floats(const float* src, float* dst, int n) { std::copy_n(src, n, dst); }
+#endif
 
 ProductBlock ProductBlock::least_padding(int rows, int columns,
                                          std::initializer_list<ProductBlock> shapes) {

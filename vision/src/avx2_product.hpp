@@ -37,4 +37,8 @@ void product_block(ProductBlock block, int taps, const float* a, std::size_t a_t
 // Orders this thread's streamed stores before its later ones (x86's sfence; nothing elsewhere).
 void stores_fence();
 
+// n floats from src to dst past the caches (non-temporal stores; dst 32-byte aligned), the last
+// n % 8 plainly; a plain copy without AVX2. stores_fence() before another thread reads them.
+void stream_floats(const float* src, float* dst, int n);
+
 }  // namespace keyfleet::vision

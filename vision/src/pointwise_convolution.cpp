@@ -1,6 +1,8 @@
 #include "pointwise_convolution.hpp"
 
 #include <algorithm>
+#include <cstdint>
+#include <vector>
 
 namespace keyfleet::vision {
 
@@ -99,12 +101,20 @@ void PointwiseConvolution::run_in_place(const float* src, int pixels, float* dst
   // and many outputs (PP-OCR's neck, 12 -> 96 channels, 7.4 MB at 640x480) went to reading in
   // the lines its first stores missed, as many streams as outputs.
   constexpr std::size_t kStreamedBytes = std::size_t(4) << 20;
-  const bool stream = !activation && depth >= total && !bfloat16_ &&
-                      std::size_t(cout_) * pixels * sizeof(float) >= kStreamedBytes;
+  const bool large =
+      depth >= total && !bfloat16_ && std::size_t(cout_) * pixels * sizeof(float) >= kStreamedBytes;
+  const bool stream = large && !activation;
+  // With an activation, a stripe's whole blocks are multiplied and activated in a buffer that
+  // stays in L1, then streamed to dst (where its planes keep the vectors 32-byte aligned).
   constexpr int kStripe = 4;
+  const std::size_t buffer_stride = std::size_t(kStripe) * width;
+  const bool stream_finished =
+      large && activation && pixels % 8 == 0 && (reinterpret_cast<std::uintptr_t>(dst) & 31) == 0;
   const int stripes = (blocks + kStripe - 1) / kStripe;
   const int zero_shift = 0;
   cv::parallel_for_(cv::Range(0, stripes), [&](const cv::Range& range) {
+    thread_local std::vector<float> stripe_buffer;
+    if (stream_finished) stripe_buffer.resize(std::size_t(cout_) * buffer_stride);
     for (int stripe = range.start; stripe < range.end; ++stripe) {
       const int first = stripe * kStripe, last = std::min(blocks, first + kStripe);
       for (int k0 = 0; k0 < total; k0 += depth) {
@@ -113,8 +123,15 @@ void PointwiseConvolution::run_in_place(const float* src, int pixels, float* dst
           const bool is_tail = blk == whole;
           const ProductInput& in = is_tail ? tail_input_ : input_;
           const int n0 = is_tail ? 0 : blk * width;
-          const std::size_t stride = is_tail ? std::size_t(width) : std::size_t(pixels);
-          float* base = is_tail ? products_.data() : dst + n0;
+          std::size_t stride = pixels;
+          float* base = dst + n0;
+          if (is_tail) {
+            stride = width;
+            base = products_.data();
+          } else if (stream_finished) {
+            stride = buffer_stride;
+            base = stripe_buffer.data() + (blk - first) * width;
+          }
           for (int rb = 0; rb < row_blocks_; ++rb) {
             const std::size_t a = (std::size_t(rb) * total + k0) * block_.rows;
             const float* bias = k0 == 0 ? bias_.data() + rb * block_.rows : nullptr;
@@ -123,14 +140,23 @@ void PointwiseConvolution::run_in_place(const float* src, int pixels, float* dst
           }
         }
       }
+      const int whole_last = std::min(last, whole);  // this stripe's whole blocks end here
+      if (stream_finished && whole_last > first) {
+        const int n = (whole_last - first) * width;
+        activation->forwardSlice(stripe_buffer.data(), stripe_buffer.data(), n, buffer_stride, 0,
+                                 cout_);
+        for (int c = 0; c < cout_; ++c)
+          stream_floats(stripe_buffer.data() + c * buffer_stride,
+                        dst + std::size_t(c) * pixels + first * width, n);
+      }
       if (last == blocks && tail)
         for (int c = 0; c < cout_; ++c)
           std::copy_n(products_.data() + std::size_t(c) * width, tail,
                       dst + std::size_t(c) * pixels + whole * width);
-      finish_columns(nullptr, pixels, cout_, first * width, std::min(pixels, last * width), dst,
-                     pixels, activation);
+      finish_columns(nullptr, pixels, cout_, (stream_finished ? whole_last : first) * width,
+                     std::min(pixels, last * width), dst, pixels, activation);
     }
-    if (stream) stores_fence();  // the streamed lines visible before the layer ends
+    if (stream || stream_finished) stores_fence();  // the streamed lines visible before the end
   });
 }
 

@@ -56,9 +56,11 @@ class SubpixelDeconvolution : public ProductKernel {
                const cv::dnn::ActivationLayer* activation);
   // For input rows y in [y0, y1): dst's plane c, row 2y + a takes phase (a, 0)'s and (a, 1)'s
   // row y in turn, from phase_row(phase, c, y); then the activation on those output rows.
+  // `stream`: each plane's rows are put together in a small buffer and written past the caches
+  // (dst's planes and rows keep the vectors 32-byte aligned).
   void interleave(int y0, int y1, int h, int w, float* dst,
                   const cv::dnn::ActivationLayer* activation,
-                  const std::function<const float*(int, int, int)>& phase_row);
+                  const std::function<const float*(int, int, int)>& phase_row, bool stream = false);
 
   int kernel_;  // 3 or 2
   // 2x2 with at most this many outputs (PP-OCR's last layer, 24 -> 1): each output's four phases
