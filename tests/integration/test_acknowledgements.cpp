@@ -7,7 +7,6 @@
 #include <optional>
 
 #include "dds_participant.hpp"
-#include "keyfleet/common/image_codec.hpp"
 #include "keyfleet/common/topic_names.hpp"
 #include "keyfleet/dds/dds_transport.hpp"
 #include "keyfleetPubSubTypes.h"
@@ -16,35 +15,14 @@
 namespace keyfleet::testing {
 namespace {
 
-using std::chrono::milliseconds;
 using std::chrono::seconds;
 
 class Acknowledgements : public FleetFixture {
  protected:
-  static Keyframe keyframe(const std::string& robot, std::uint64_t sequence, int shade) {
-    Keyframe k;
-    k.robot_id = robot;
-    k.sequence_number = sequence;
-    k.encoding = "jpeg";
-    k.width = 64;
-    k.height = 48;
-    k.image = JpegCodec(80).encode(cv::Mat(48, 64, CV_8UC3, cv::Scalar(shade, 120, 200)));
-    return k;
-  }
-
-  // Publishes `k` until the link takes an acknowledgement of its number; returns the first.
+  // Publishes `k` once the link has a station, until it takes an answer to its number.
   static std::optional<KeyframeAck> publish_until_acknowledged(AgentLink& link, const Keyframe& k) {
-    std::optional<KeyframeAck> first;
-    if (!wait_until([&] { return link.matched_stations() > 0; }, seconds(20))) return first;
-    wait_until(
-        [&] {
-          link.publish(k);
-          for (const auto& ack : link.take_acks(k.robot_id, milliseconds(300)))
-            if (!first && ack.sequence_number == k.sequence_number) first = ack;
-          return first.has_value();
-        },
-        seconds(30));
-    return first;
+    if (!wait_until([&] { return link.matched_stations() > 0; }, seconds(20))) return std::nullopt;
+    return first_answer(link, k, seconds(30));
   }
 };
 
@@ -80,12 +58,12 @@ TEST_F(Acknowledgements, ARobotTakesOnlyAcknowledgementsOfItsCurrentWritersSampl
   auto station = start_station(station_config());
   {
     auto earlier = make_dds_agent_link(dds(), "drone", null_logger());
-    const auto ack = publish_until_acknowledged(*earlier, keyframe("drone", 0, 40));
+    const auto ack = publish_until_acknowledged(*earlier, small_keyframe("drone", 0, 40));
     ASSERT_TRUE(ack.has_value()) << "the first participant's keyframe was never acknowledged";
     EXPECT_EQ(ack->status, AckStatus::kStored) << ack->reason;
   }
   auto later = make_dds_agent_link(dds(), "drone", null_logger());
-  const auto ack = publish_until_acknowledged(*later, keyframe("drone", 0, 90));
+  const auto ack = publish_until_acknowledged(*later, small_keyframe("drone", 0, 90));
   ASSERT_TRUE(ack.has_value()) << "the second participant's keyframe was never answered";
   EXPECT_EQ(ack->status, AckStatus::kConflict)
       << "the new participant took the acknowledgement of the earlier one's keyframe";

@@ -5,7 +5,6 @@
 #include <map>
 
 #include "keyfleet/common/error.hpp"
-#include "keyfleet/common/image_codec.hpp"
 #include "keyfleet/dds/dds_transport.hpp"
 #include "keyfleet/mission/fleet_credentials.hpp"
 #include "support/fleet_fixture.hpp"
@@ -34,28 +33,6 @@ class DdsSecurity : public FleetFixture {
     config.dds.security = {true, mission::host_bundle(credentials_, kStationIdentity)};
     return config;
   }
-  Keyframe keyframe(const std::string& robot_id, std::uint64_t sequence) const {
-    Keyframe k;
-    k.robot_id = robot_id;
-    k.sequence_number = sequence;
-    k.width = 64;
-    k.height = 48;
-    k.image = JpegCodec(80).encode(cv::Mat(48, 64, CV_8UC3, cv::Scalar(40, 120, 200)));
-    return k;
-  }
-  // Publishes until the station answers (a sample written while matching may be missed).
-  std::optional<KeyframeAck> deliver(AgentLink& link, const Keyframe& k, seconds timeout) {
-    std::optional<KeyframeAck> ack;
-    wait_until(
-        [&] {
-          link.publish(k);
-          for (auto& a : link.take_acks(k.robot_id, milliseconds(300)))
-            if (a.sequence_number == k.sequence_number) ack = a;
-          return ack.has_value();
-        },
-        timeout);
-    return ack;
-  }
   // A credentials folder where `real`'s certificate, key and permissions lie under the name
   // `as`: a participant made "as" that identity authenticates as `real`.
   std::string disguised(const std::string& real, const std::string& as) const {
@@ -81,14 +58,14 @@ TEST_F(DdsSecurity, SecuredRobotIsServedAndStrangersGetNothing) {
   auto eavesdropper = make_dds_station_link(dds(), null_logger());       // no credentials
   ASSERT_TRUE(wait_until([&] { return robot->matched_stations() > 0; }, seconds(30)));
 
-  const auto ack = deliver(*robot, keyframe("drone_0", 0), seconds(20));
+  const auto ack = first_answer(*robot, small_keyframe("drone_0", 0), seconds(20));
   ASSERT_TRUE(ack.has_value());
   EXPECT_EQ(ack->status, AckStatus::kStored);
   // By now the stranger has been announced to the station for as long as the robot took to be
   // authenticated and served: it was never matched, and its keyframe was never stored.
-  stranger->publish(keyframe("drone_1", 0));
+  stranger->publish(small_keyframe("drone_1", 0));
   EXPECT_EQ(stranger->matched_stations(), 0u);
-  const auto again = deliver(*robot, keyframe("drone_0", 1), seconds(20));
+  const auto again = first_answer(*robot, small_keyframe("drone_0", 1), seconds(20));
   ASSERT_TRUE(again.has_value());
   EXPECT_EQ(stored_counts()["drone_0"], 2);
   EXPECT_EQ(stored_counts().count("drone_1"), 0u);
@@ -111,11 +88,11 @@ TEST_F(DdsSecurity, ParticipantCertifiedByAnotherCaIsNeverMatched) {
   impostor_settings.security = {true, mission::host_bundle(other, "drone_1")};
   auto impostor = make_dds_agent_link(impostor_settings, "drone_1", null_logger());
   auto robot = make_dds_agent_link(secured("drone_0"), "drone_0", null_logger());
-  const auto ack = deliver(*robot, keyframe("drone_0", 0), seconds(30));
+  const auto ack = first_answer(*robot, small_keyframe("drone_0", 0), seconds(30));
   ASSERT_TRUE(ack.has_value());
-  impostor->publish(keyframe("drone_1", 0));
+  impostor->publish(small_keyframe("drone_1", 0));
   EXPECT_EQ(impostor->matched_stations(), 0u);
-  ASSERT_TRUE(deliver(*robot, keyframe("drone_0", 1), seconds(20)).has_value());
+  ASSERT_TRUE(first_answer(*robot, small_keyframe("drone_0", 1), seconds(20)).has_value());
   EXPECT_EQ(stored_counts().count("drone_1"), 0u);
   EXPECT_TRUE(impostor->take_acks("drone_0", milliseconds(0)).empty());  // reads no acks either
 
@@ -156,7 +133,7 @@ TEST_F(DdsSecurity, KeyframeClaimingAnotherRobotIsRefused) {
   auto robot = make_dds_agent_link(secured("drone_1"), "drone_1", null_logger());
   ASSERT_TRUE(wait_until([&] { return robot->matched_stations() > 0; }, seconds(30)));
 
-  const auto ack = deliver(*robot, keyframe("drone_0", 7), seconds(20));
+  const auto ack = first_answer(*robot, small_keyframe("drone_0", 7), seconds(20));
   ASSERT_TRUE(ack.has_value());
   EXPECT_EQ(ack->status, AckStatus::kRejected);
   EXPECT_NE(ack->reason.find("is not its writer's, 'drone_1'"), std::string::npos) << ack->reason;

@@ -10,7 +10,6 @@
 #include <optional>
 #include <sstream>
 
-#include "keyfleet/common/image_codec.hpp"
 #include "keyfleet/common/sqlite.hpp"
 #include "keyfleet/dds/dds_transport.hpp"
 #include "keyfleet/mission/fleet_credentials.hpp"
@@ -19,7 +18,6 @@
 namespace keyfleet::testing {
 namespace {
 
-using std::chrono::milliseconds;
 using std::chrono::seconds;
 
 class StationAdmission : public FleetFixture {
@@ -37,22 +35,12 @@ class StationAdmission : public FleetFixture {
       count += line.find(what) != std::string::npos;
     return count;
   }
-  static Keyframe keyframe(const std::string& robot, std::uint64_t sequence) {
-    Keyframe k;
-    k.robot_id = robot;
-    k.sequence_number = sequence;
-    k.encoding = "jpeg";
-    k.width = 64;
-    k.height = 48;
-    k.image = JpegCodec(80).encode(cv::Mat(48, 64, CV_8UC3, cv::Scalar(40, 120, 200)));
-    return k;
-  }
   // Publishes until the station logs `line` (the link publishes into the void meanwhile).
   bool publish_until_logged(AgentLink& link, const std::string& robot, const std::string& line) {
     std::uint64_t sequence = 0;
     return wait_until(
         [&] {
-          link.publish(keyframe(robot, sequence++));
+          link.publish(small_keyframe(robot, sequence++));
           return log_lines_mentioning(line) > 0;
         },
         seconds(20));
@@ -87,7 +75,7 @@ TEST_F(StationAdmission, StationServesItsAllowListOnly) {
   ASSERT_TRUE(status && status->ok()) << mission::tail_of_file(good_agent->log_path(), 20);
   EXPECT_EQ(stored_counts()["good_drone"], 12);
   EXPECT_EQ(stranger->matched_stations(), 0u) << "the station made a reader for the stranger";
-  stranger->publish(keyframe("stranger", 1000));
+  stranger->publish(small_keyframe("stranger", 1000));
 
   const nlohmann::json report = stop_and_read_report(*station);
   EXPECT_EQ(report["refused_robots"]["not_allowed"], 1) << report.dump(2);
@@ -105,15 +93,8 @@ TEST_F(StationAdmission, StationServesAtMostMaxRobots) {
 
   auto first = make_dds_agent_link(dds(), "first", null_logger());
   ASSERT_TRUE(wait_until([&] { return first->matched_stations() > 0; }, seconds(20)));
-  std::optional<KeyframeAck> ack;
-  ASSERT_TRUE(wait_until(
-      [&] {
-        if (!ack) first->publish(keyframe("first", 0));
-        for (auto& a : first->take_acks("first", milliseconds(300)))
-          if (!ack) ack = a;
-        return ack.has_value();
-      },
-      seconds(20)));
+  const auto ack = first_answer(*first, small_keyframe("first", 0), seconds(20));
+  ASSERT_TRUE(ack.has_value());
   EXPECT_EQ(ack->status, AckStatus::kStored) << ack->reason;
 
   auto second = make_dds_agent_link(dds(), "second", null_logger());
@@ -171,8 +152,8 @@ TEST_F(SecuredStationAdmission, StrangerAndWithdrawnRobotCannotTakeTheLastSlot) 
                                   null_logger());
   std::uint64_t sequence = 0;
   const auto strangers_publish = [&] {
-    stranger->publish(keyframe("stranger", sequence));
-    lost->publish(keyframe("drone_1", sequence++));
+    stranger->publish(small_keyframe("stranger", sequence));
+    lost->publish(small_keyframe("drone_1", sequence++));
   };
   // They publish from before the robot starts until it is done.
   strangers_publish();

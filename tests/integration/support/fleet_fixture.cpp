@@ -9,6 +9,7 @@
 #include <random>
 #include <sstream>
 
+#include "keyfleet/common/image_codec.hpp"
 #include "keyfleet/common/sqlite.hpp"
 
 namespace keyfleet::testing {
@@ -45,6 +46,31 @@ std::string read_file(const fs::path& path) {
   std::stringstream text;
   text << in.rdbuf();
   return text.str();
+}
+
+Keyframe small_keyframe(const std::string& robot_id, std::uint64_t sequence, int shade) {
+  Keyframe k;
+  k.robot_id = robot_id;
+  k.sequence_number = sequence;
+  k.encoding = "jpeg";
+  k.width = 64;
+  k.height = 48;
+  k.image = JpegCodec(80).encode(cv::Mat(48, 64, CV_8UC3, cv::Scalar(shade, 120, 200)));
+  return k;
+}
+
+std::optional<KeyframeAck> first_answer(AgentLink& link, const Keyframe& k,
+                                        std::chrono::milliseconds timeout) {
+  std::optional<KeyframeAck> first;
+  wait_until(
+      [&] {
+        link.publish(k);
+        for (const auto& ack : link.take_acks(k.robot_id, std::chrono::milliseconds(300)))
+          if (!first && ack.sequence_number == k.sequence_number) first = ack;
+        return first.has_value();
+      },
+      timeout);
+  return first;
 }
 
 void FleetFixture::finish_mission(std::vector<std::unique_ptr<mission::ChildProcess>>& agents,

@@ -9,11 +9,13 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
 
 #include "keyfleet/agent/agent_config.hpp"
+#include "keyfleet/common/transport.hpp"
 #include "keyfleet/mission/child_process.hpp"
 #include "keyfleet/station/station_config.hpp"
 
@@ -24,6 +26,14 @@ bool wait_until(const std::function<bool()>& condition, std::chrono::millisecond
 
 // The whole file as text; "" when it cannot be read (not there yet).
 std::string read_file(const std::filesystem::path& path);
+
+// A 64x48 JPEG keyframe of one colour (`shade`: its blue), for tests that publish by hand.
+Keyframe small_keyframe(const std::string& robot_id, std::uint64_t sequence, int shade = 40);
+
+// Publishes `k` on `link` until the station answers its number (a sample written while the link
+// matches may be missed): the first answer taken, or none within `timeout`.
+std::optional<KeyframeAck> first_answer(AgentLink& link, const Keyframe& k,
+                                        std::chrono::milliseconds timeout);
 
 struct StoredKeyframe {
   std::string robot_id;
