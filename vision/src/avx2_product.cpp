@@ -3,7 +3,6 @@
 #include <opencv2/core.hpp>
 
 #include <algorithm>
-#include <cstdint>
 
 #if defined(__GNUC__) && defined(__x86_64__)
 #include <immintrin.h>
@@ -45,7 +44,7 @@ __attribute__((target("avx2,fma"))) void tile(const float* a, std::size_t a_tap_
       }
     }
   }
-  if (stream && (reinterpret_cast<std::uintptr_t>(out) & 31) == 0 && out_stride % 8 == 0) {
+  if (stream && vector_aligned(out) && out_stride % 8 == 0) {
 #pragma GCC unroll 16
     for (int r = 0; r < kRows; ++r)
 #pragma GCC unroll 16

@@ -7,6 +7,7 @@
 // convolution's phase, or a 1x1 convolution with one tap at shift 0), with its 12
 // accumulators in registers.
 #include <cstddef>
+#include <cstdint>
 #include <initializer_list>
 
 namespace keyfleet::vision {
@@ -36,6 +37,16 @@ void product_block(ProductBlock block, int taps, const float* a, std::size_t a_t
 
 // Orders this thread's streamed stores before its later ones (x86's sfence; nothing elsewhere).
 void stores_fence();
+
+// Outputs of at least this many bytes are written past the caches where nothing reads them back
+// within the layer (product_block's `stream`, stream_floats): smaller ones stay in cache for the
+// next layer.
+constexpr std::size_t kStreamedOutputBytes = std::size_t(4) << 20;
+
+// Whether p keeps 32-byte vectors aligned, as non-temporal stores need.
+inline bool vector_aligned(const void* p) {
+  return (reinterpret_cast<std::uintptr_t>(p) & 31) == 0;
+}
 
 // n floats from src to dst past the caches (non-temporal stores; dst 32-byte aligned), the last
 // n % 8 plainly; a plain copy without AVX2. stores_fence() before another thread reads them.

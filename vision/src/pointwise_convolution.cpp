@@ -1,7 +1,6 @@
 #include "pointwise_convolution.hpp"
 
 #include <algorithm>
-#include <cstdint>
 #include <vector>
 
 namespace keyfleet::vision {
@@ -100,16 +99,14 @@ void PointwiseConvolution::run_in_place(const float* src, int pixels, float* dst
   // summed in one chunk) is written past the caches: most of the time of a layer with few inputs
   // and many outputs (PP-OCR's neck, 12 -> 96 channels, 7.4 MB at 640x480) went to reading in
   // the lines its first stores missed, as many streams as outputs.
-  constexpr std::size_t kStreamedBytes = std::size_t(4) << 20;
-  const bool large =
-      depth >= total && !bfloat16_ && std::size_t(cout_) * pixels * sizeof(float) >= kStreamedBytes;
+  const bool large = depth >= total && !bfloat16_ &&
+                     std::size_t(cout_) * pixels * sizeof(float) >= kStreamedOutputBytes;
   const bool stream = large && !activation;
   // With an activation, a stripe's whole blocks are multiplied and activated in a buffer that
   // stays in L1, then streamed to dst (where its planes keep the vectors 32-byte aligned).
   constexpr int kStripe = 4;
   const std::size_t buffer_stride = std::size_t(kStripe) * width;
-  const bool stream_finished =
-      large && activation && pixels % 8 == 0 && (reinterpret_cast<std::uintptr_t>(dst) & 31) == 0;
+  const bool stream_finished = large && activation && pixels % 8 == 0 && vector_aligned(dst);
   const int stripes = (blocks + kStripe - 1) / kStripe;
   const int zero_shift = 0;
   cv::parallel_for_(cv::Range(0, stripes), [&](const cv::Range& range) {

@@ -3,7 +3,6 @@
 #include <opencv2/core/hal/intrin.hpp>
 
 #include <algorithm>
-#include <cstdint>
 #include <utility>
 #include <vector>
 
@@ -218,9 +217,8 @@ void SubpixelDeconvolution::run_2x2(const float* src, int h, int w, float* dst,
   const std::size_t plane = std::size_t(h) * w;
   // A large output (PP-OCR's 24 -> 24 at 640x480: 7.4 MB) is written past the caches: its lines
   // need not be read in before they are written.
-  constexpr std::size_t kStreamedBytes = std::size_t(4) << 20;
-  const bool stream = std::size_t(4) * cout_ * plane * sizeof(float) >= kStreamedBytes &&
-                      w % 2 == 0 && (reinterpret_cast<std::uintptr_t>(dst) & 31) == 0;
+  const bool stream = std::size_t(4) * cout_ * plane * sizeof(float) >= kStreamedOutputBytes &&
+                      w % 2 == 0 && vector_aligned(dst);
   band_input_.resize(std::size_t(cin_) * band * w);
   products_.resize(std::size_t(4) * cout_ * band * w);
   for (int y0 = 0; y0 < h; y0 += band) {
