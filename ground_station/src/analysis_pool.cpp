@@ -1,5 +1,8 @@
 #include "keyfleet/station/analysis_pool.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 namespace keyfleet::station {
 
 AnalysisPool::AnalysisPool(std::vector<Step> workers, std::size_t capacity, Logger logger,
@@ -25,9 +28,11 @@ void AnalysisPool::submit(AnalysisJob job) {
     logger_->warn("analysis of {} deferred: {}", to_string(oldest.key), deferred.detail);
     results_.push_back(std::move(deferred));
     waiting_.pop_front();
+    submitted_.pop_front();
     ++counters_.deferred;
   }
   waiting_.push_back(std::move(job));
+  submitted_.push_back(std::chrono::steady_clock::now());
   work_ready_.notify_one();
 }
 
@@ -38,6 +43,8 @@ void AnalysisPool::run(const Step& step) {
     if (stopping_) return;
     AnalysisJob job = std::move(waiting_.front());
     waiting_.pop_front();
+    const auto submitted = submitted_.front();
+    submitted_.pop_front();
     ++counters_.running;
     lock.unlock();
     if (on_start_) {
@@ -59,7 +66,9 @@ void AnalysisPool::run(const Step& step) {
       result.detail = std::string("analysis failed: ") + e.what();
       logger_->error("analysis of {} failed: {}", to_string(job.key), e.what());
     }
+    const std::chrono::duration<float> latency = std::chrono::steady_clock::now() - submitted;
     lock.lock();
+    latencies_s_.push_back(latency.count());
     results_.push_back(std::move(result));
     --counters_.running;
     ++counters_.analysed;
@@ -92,12 +101,34 @@ AnalysisPool::Counters AnalysisPool::counters() const {
   return c;
 }
 
+AnalysisPool::Latency AnalysisPool::latency() const {
+  std::vector<float> sorted;
+  {
+    std::lock_guard lock(mutex_);
+    sorted = latencies_s_;
+  }
+  Latency l;
+  l.count = sorted.size();
+  if (sorted.empty()) return l;
+  std::sort(sorted.begin(), sorted.end());
+  // The nearest rank: the smallest value with at least q of the values at or below it.
+  const auto rank = [&](double q) {
+    const auto at = std::size_t(std::max(1.0, std::ceil(q * double(sorted.size())))) - 1;
+    return double(sorted[at]);
+  };
+  l.p50_s = rank(0.50);
+  l.p95_s = rank(0.95);
+  l.max_s = double(sorted.back());
+  return l;
+}
+
 void AnalysisPool::stop() {
   {
     std::lock_guard lock(mutex_);
     if (stopping_) return;
     stopping_ = true;
     waiting_.clear();
+    submitted_.clear();
   }
   work_ready_.notify_all();
   for (auto& t : threads_) t.join();

@@ -1,5 +1,6 @@
 // A station and three agent processes over real Fast DDS: every keyframe stored once,
-// byte for byte what the agent encoded, and the bandwidth report written.
+// byte for byte what the agent encoded, the bandwidth report written, and the analysis' latency
+// (process.json) counting each keyframe analysed once.
 #include <csignal>
 #include <filesystem>
 #include <fstream>
@@ -7,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "keyfleet/common/sqlite.hpp"
 #include "support/expected_keyframes.hpp"
 #include "support/fleet_fixture.hpp"
 
@@ -48,6 +50,20 @@ TEST_F(FleetEndToEnd, EveryKeyframeStoredExactlyOnceWithIdenticalBytes) {
   }
   EXPECT_TRUE(std::filesystem::exists(station_dir() / "report.csv"));
   EXPECT_TRUE(std::filesystem::exists(station_dir() / "mission_log.pb"));
+
+  // Every result the station saved had its latency counted, none twice (a stop may leave a
+  // result unsaved, so the count may be above the rows, never below them nor above 36).
+  std::ifstream process_file(station_dir() / "process.json");
+  ASSERT_TRUE(process_file.good());
+  const auto lag = nlohmann::json::parse(process_file).at("analysis_latency_s");
+  SqliteDb db((station_dir() / "station.sqlite").string(), SqliteDb::Mode::kReadOnly);
+  auto analysed =
+      db.prepare("SELECT COUNT(*) FROM keyframe_analysis WHERE status IN ('done', 'failed')");
+  ASSERT_TRUE(analysed.step());
+  EXPECT_GE(lag.at("count").get<std::int64_t>(), analysed.int64(0)) << lag.dump();
+  EXPECT_LE(lag.at("count").get<std::int64_t>(), 36) << lag.dump();
+  EXPECT_LE(lag.at("p50").get<double>(), lag.at("p95").get<double>()) << lag.dump();
+  EXPECT_LE(lag.at("p95").get<double>(), lag.at("max").get<double>()) << lag.dump();
 }
 
 std::set<std::string> fastdds_shm_files() {

@@ -99,6 +99,44 @@ TEST(AnalysisPool, DefersTheOldestWaitingJobsWhenFullAndLosesNone) {
   EXPECT_EQ(pool.counters().deferred, 3u);
 }
 
+TEST(AnalysisPool, LatencyRunsFromSubmitToResultSoAQueueBehindOneWorkerShowsInIt) {
+  // Each analysis takes at least 20 ms (the step's input, not a wait): with one worker and
+  // three keyframes submitted at once, the second waits for the first and the third for both,
+  // so their latencies are at least 20, 40 and 60 ms. Measured from the step's start they would
+  // all be about 20.
+  const auto analysis = [](const AnalysisJob& j) {
+    const auto until = std::chrono::steady_clock::now() + 20ms;
+    while (std::chrono::steady_clock::now() < until) {
+    }
+    return done_result(j);
+  };
+  AnalysisPool pool({analysis}, 8, null_logger());
+  EXPECT_EQ(pool.latency().count, 0u);
+  const auto submitted = std::chrono::steady_clock::now();
+  for (std::uint64_t s = 0; s < 3; ++s) pool.submit(job_for("r", s));
+  ASSERT_TRUE(pool.wait_until_idle(10s));
+  const std::chrono::duration<double> whole = std::chrono::steady_clock::now() - submitted;
+
+  const AnalysisPool::Latency lag = pool.latency();
+  EXPECT_EQ(lag.count, 3u);
+  EXPECT_GE(lag.p50_s, 0.040) << "the second keyframe waited for the first";
+  EXPECT_GE(lag.max_s, 0.060);
+  EXPECT_LE(lag.p50_s, lag.p95_s);
+  EXPECT_LE(lag.p95_s, lag.max_s);
+  EXPECT_LE(lag.max_s, whole.count() + 0.001);
+}
+
+TEST(AnalysisPool, ADeferredKeyframeHasNoLatencyUntilItIsAnalysed) {
+  Gate gate;
+  AnalysisPool pool({[&](const AnalysisJob& j) { return gate.pass(j); }}, 2, null_logger());
+  pool.submit(job_for("r", 0));
+  ASSERT_TRUE(gate.wait_entered(1));  // 0 runs; 1 and 2 wait; 3 pushes 1 out (deferred)
+  for (std::uint64_t s = 1; s <= 3; ++s) pool.submit(job_for("r", s));
+  gate.open();
+  ASSERT_TRUE(pool.wait_until_idle(10s));
+  EXPECT_EQ(pool.latency().count, 3u) << "0, 2 and 3 analysed; 1 deferred";
+}
+
 TEST(AnalysisPool, AThrowingStepMarksTheKeyframeFailedAndTheWorkerGoesOn) {
   AnalysisPool pool({[](const AnalysisJob& j) {
                       if (j.key.sequence == 1) throw std::runtime_error("engine crashed");

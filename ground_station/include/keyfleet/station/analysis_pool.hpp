@@ -29,6 +29,12 @@ class AnalysisPool {
     std::size_t analysed = 0;  // results with status kDone or kFailed
     std::size_t deferred = 0;  // deferred by the overload policy, in total
   };
+  // From submit() to the result (done or failed) of each keyframe analysed, seconds: whether
+  // the station reads as fast as keyframes arrive (`keyfleet bench fleet`'s "read lag").
+  struct Latency {
+    std::size_t count = 0;
+    double p50_s = 0, p95_s = 0, max_s = 0;
+  };
 
   // One step per worker thread (each may own engines that are not thread-safe).
   AnalysisPool(std::vector<Step> workers, std::size_t capacity, Logger logger,
@@ -43,6 +49,7 @@ class AnalysisPool {
   bool idle() const;
   bool wait_until_idle(std::chrono::milliseconds timeout);
   Counters counters() const;
+  Latency latency() const;
   // Lets the running steps finish and joins; waiting jobs are dropped from memory (they
   // are stored, unanalysed, and the station picks them up when it next starts).
   void stop();
@@ -57,6 +64,8 @@ class AnalysisPool {
   std::condition_variable work_ready_;
   std::condition_variable became_idle_;
   std::deque<AnalysisJob> waiting_;
+  std::deque<std::chrono::steady_clock::time_point> submitted_;  // waiting_'s, in its order
+  std::vector<float> latencies_s_;                               // one a keyframe analysed
   std::vector<AnalysisResult> results_;
   Counters counters_;
   bool stopping_ = false;

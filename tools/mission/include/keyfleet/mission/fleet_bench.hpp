@@ -53,6 +53,10 @@ struct StationFigures {
   double start_cpu_s = 0;  // of cpu_s, to start (station/process.json; 0 when absent)
   std::uint64_t keyframes = 0;
   double text_ms = 0, places_ms = 0, text_cpu_ms = 0;
+  // From a keyframe's arrival at the analysis queue to its result, seconds (process.json; a
+  // negative p95 when absent): near one keyframe's analysis while the station keeps up, growing
+  // with the flight when it reads behind it.
+  double read_lag_p95_s = -1, read_lag_max_s = -1;
 };
 
 struct FleetRunFigures {
@@ -70,6 +74,7 @@ struct FleetRunFigures {
   std::uint64_t station_keyframes = 0;
   double station_text_ms_per_keyframe = 0, station_places_ms_per_keyframe = 0;
   double station_text_cpu_ms_per_keyframe = 0;
+  double station_read_lag_p95_s = -1, station_read_lag_max_s = -1;  // StationFigures' read lag
   double frames_per_s_per_core = 0;  // all agents' frames / wall time / cores
   bool keeps_realtime = false;
   std::vector<std::string> failures;
