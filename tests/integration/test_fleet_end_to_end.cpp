@@ -64,6 +64,10 @@ TEST_F(FleetEndToEnd, EveryKeyframeStoredExactlyOnceWithIdenticalBytes) {
   EXPECT_LE(lag.at("count").get<std::int64_t>(), 36) << lag.dump();
   EXPECT_LE(lag.at("p50").get<double>(), lag.at("p95").get<double>()) << lag.dump();
   EXPECT_LE(lag.at("p95").get<double>(), lag.at("max").get<double>()) << lag.dump();
+  EXPECT_GE(nlohmann::json::parse(read_file(station_dir() / "process.json"))
+                .at("analysis_deferred")
+                .get<int>(),
+            0);
 }
 
 std::set<std::string> fastdds_shm_files() {

@@ -70,10 +70,10 @@ TEST(FleetFigures, LargestRealTimeFleetStopsAtTheFirstThatFallsBehind) {
   EXPECT_NE(table.find("trigger"), std::string::npos) << table;
   EXPECT_NE(table.find("strm ms/f"), std::string::npos) << table;
   EXPECT_NE(table.find("stn work"), std::string::npos) << table;
-  EXPECT_NE(table.find("read p95 s"), std::string::npos) << table;
+  EXPECT_NE(table.find("read p95+dfr"), std::string::npos) << table;
 }
 
-TEST(FleetFigures, TheStationsReadLagIsCarriedAndShownOnlyWhereItWasWritten) {
+TEST(FleetFigures, TheStationsReadLagAndDeferralsAreCarriedAndShownOnlyWhereWritten) {
   StationFigures station;
   station.read_lag_p95_s = 2.46;  // from its process.json
   station.read_lag_max_s = 7.5;
@@ -82,6 +82,11 @@ TEST(FleetFigures, TheStationsReadLagIsCarriedAndShownOnlyWhereItWasWritten) {
   EXPECT_DOUBLE_EQ(r.station_read_lag_max_s, 7.5);
   const std::string with = format_fleet_table({r}, 2);
   EXPECT_NE(with.find(" 2.5 "), std::string::npos) << with;
+  station.deferred = 130;  // a full queue put these off until after the flight
+  const auto behind = fleet_figures(1, true, {agent(10.0, 0, 1.0)}, station, 10.0, 2, 0.98);
+  EXPECT_EQ(behind.station_deferred, 130);
+  const std::string shown = format_fleet_table({behind}, 2);
+  EXPECT_NE(shown.find(" 2.5+130 "), std::string::npos) << shown;
   const auto older = fleet_figures(1, true, {agent(10.0, 0, 1.0)}, StationFigures{}, 10.0, 2, 0.98);
   EXPECT_LT(older.station_read_lag_p95_s, 0) << "a station that wrote no latency";
   const std::string without = format_fleet_table({older}, 2);

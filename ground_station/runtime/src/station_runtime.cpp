@@ -253,15 +253,18 @@ int StationRuntime::finish() {
     return std::string();
   });
   // The process's CPU, all threads: to start (models, DDS, the database) and in all, so that a
-  // benchmark can tell the start from the work; and how long keyframes waited for their
-  // analysis, whether it kept up with them (`keyfleet bench fleet`).
+  // benchmark can tell the start from the work; and whether its analysis kept up with the
+  // keyframes: how long they waited for it, and how many a full queue deferred to later
+  // (`keyfleet bench fleet`).
   write_report("process.json", [&] {
     const AnalysisPool::Latency lag = p.pool->latency();
     char text[256];
     std::snprintf(text, sizeof text,
                   "{\"start_cpu_s\": %.3f, \"cpu_s\": %.3f, \"analysis_latency_s\": "
-                  "{\"count\": %zu, \"p50\": %.3f, \"p95\": %.3f, \"max\": %.3f}}\n",
-                  p.start_cpu_s, process_cpu_s(), lag.count, lag.p50_s, lag.p95_s, lag.max_s);
+                  "{\"count\": %zu, \"p50\": %.3f, \"p95\": %.3f, \"max\": %.3f}, "
+                  "\"analysis_deferred\": %zu}\n",
+                  p.start_cpu_s, process_cpu_s(), lag.count, lag.p50_s, lag.p95_s, lag.max_s,
+                  p.pool->counters().deferred);
     write_file(fs::path(p.folders.run_dir) / "process.json", text);
     return std::string();
   });

@@ -37,6 +37,7 @@ StationFigures read_station(const ProcessFigures& station) {
         figures.read_lag_p95_s = lag.value("p95", -1.0);
         figures.read_lag_max_s = lag.value("max", -1.0);
       }
+      figures.deferred = process.value("analysis_deferred", std::int64_t(-1));
     }
   } catch (const nlohmann::json::exception&) {
     // A station that stopped while writing it: its whole CPU only.
@@ -127,6 +128,7 @@ FleetRunFigures fleet_figures(int drones, bool realtime,
   r.station_text_cpu_ms_per_keyframe = per(station.text_cpu_ms, double(station.keyframes));
   r.station_read_lag_p95_s = station.read_lag_p95_s;
   r.station_read_lag_max_s = station.read_lag_max_s;
+  r.station_deferred = station.deferred;
   r.frames_per_s_per_core = per(per(frames, wall_s), double(std::max(cores, 1u)));
   r.keeps_realtime = realtime && !agents.empty() && r.rtf_min >= realtime_threshold;
   return r;
@@ -150,21 +152,24 @@ std::string format_fleet_table(const std::vector<FleetRunFigures>& runs, unsigne
   std::string out;
   char line[512];
   std::snprintf(line, sizeof line,
-                "%-9s %3s %7s %6s %6s %7s %7s %8s %9s %9s %9s %9s %8s %9s %9s %10s %9s %s\n",
+                "%-9s %3s %7s %6s %6s %7s %7s %8s %9s %9s %9s %9s %8s %9s %9s %12s %9s %s\n",
                 "mode", "N", "wall s", "RTF", "RTFmin", "frames", "late", "lag ms", "agent ms/f",
-                "strm ms/f", "stn ms/f", "stn work", "stn kf", "OCR ms/kf", "OCR cpu", "read p95 s",
-                "fps/core", "real time");
+                "strm ms/f", "stn ms/f", "stn work", "stn kf", "OCR ms/kf", "OCR cpu",
+                "read p95+dfr", "fps/core", "real time");
   out += line;
   std::set<std::string> stages;
   for (const auto& r : runs) {
     for (const auto& [name, ms] : r.stage_ms_per_frame) stages.insert(name);
     char read_lag[32] = "-";  // a station that wrote no analysis latency
-    if (r.station_read_lag_p95_s >= 0)
+    if (r.station_read_lag_p95_s >= 0 && r.station_deferred > 0)
+      std::snprintf(read_lag, sizeof read_lag, "%.1f+%lld", r.station_read_lag_p95_s,
+                    static_cast<long long>(r.station_deferred));
+    else if (r.station_read_lag_p95_s >= 0)
       std::snprintf(read_lag, sizeof read_lag, "%.1f", r.station_read_lag_p95_s);
     std::snprintf(
         line, sizeof line,
         "%-9s %3d %7.1f %6.2f %6.2f %7llu %7llu %8.0f %9.2f %9.2f %9.2f %9.2f %8llu %9.0f "
-        "%9.0f %10s %9.1f %s\n",
+        "%9.0f %12s %9.1f %s\n",
         r.realtime ? "realtime" : "fast", r.drones, r.wall_s, r.rtf_mean, r.rtf_min,
         static_cast<unsigned long long>(r.frames), static_cast<unsigned long long>(r.late_frames),
         r.max_lag_ms, r.agent_cpu_ms_per_frame, r.agent_stream_cpu_ms_per_frame,

@@ -54,9 +54,11 @@ struct StationFigures {
   std::uint64_t keyframes = 0;
   double text_ms = 0, places_ms = 0, text_cpu_ms = 0;
   // From a keyframe's arrival at the analysis queue to its result, seconds (process.json; a
-  // negative p95 when absent): near one keyframe's analysis while the station keeps up, growing
-  // with the flight when it reads behind it.
+  // negative p95 when absent): near one keyframe's analysis while the station keeps up. When
+  // it reads behind, its bounded queue defers the oldest keyframes to after the flight: the lag
+  // then stops at the queue's length, and `deferred` counts them.
   double read_lag_p95_s = -1, read_lag_max_s = -1;
+  std::int64_t deferred = -1;  // -1: not written
 };
 
 struct FleetRunFigures {
@@ -75,6 +77,7 @@ struct FleetRunFigures {
   double station_text_ms_per_keyframe = 0, station_places_ms_per_keyframe = 0;
   double station_text_cpu_ms_per_keyframe = 0;
   double station_read_lag_p95_s = -1, station_read_lag_max_s = -1;  // StationFigures' read lag
+  std::int64_t station_deferred = -1;
   double frames_per_s_per_core = 0;  // all agents' frames / wall time / cores
   bool keeps_realtime = false;
   std::vector<std::string> failures;
