@@ -7,9 +7,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <mutex>
 #include <string>
 
+#include "banded_depthwise.hpp"
 #include "bf16_product.hpp"
 #include "convolution_3x3.hpp"
 #include "dense_layers.hpp"
@@ -305,6 +307,14 @@ class DepthwiseLayer final : public cv::dnn::Layer {
     if (blobs.size() > 1) bias_ = blobs[1].reshape(1, 1);
   }
 
+  // A BandedDepthwise of this layer after a 1x1 layer of `channels` outputs, where it takes it.
+  std::unique_ptr<BandedDepthwise> banded(int channels) const {
+    if (sh_ != sw_ || kh_ != kw_ ||
+        !BandedDepthwise::takes(blobs[0], bias_, channels, kh_, sh_, pt_, pl_, pb_, pr_, dh_, dw_))
+      return nullptr;
+    return std::make_unique<BandedDepthwise>(blobs[0], bias_, sh_);
+  }
+
   // Convolutions the layer takes over; the others stay OpenCV's.
   static bool handles(const cv::dnn::LayerParams& params,
                       const cv::dnn::BaseConvolutionLayer& geometry) {
@@ -462,21 +472,106 @@ class SameSizeLayer : public ProductLayer<Kernel> {
   }
 };
 
+// OpenCV's own depthwise convolution `layer` as a BandedDepthwise after a 1x1 layer of
+// `channels` outputs, where it is one that takes.
+std::unique_ptr<BandedDepthwise> banded_opencv_depthwise(const cv::dnn::Layer& layer,
+                                                         int channels) {
+  const auto* conv = dynamic_cast<const cv::dnn::BaseConvolutionLayer*>(&layer);
+  if (!conv || layer.type != "Convolution" || layer.blobs.empty() || !conv->padMode.empty() ||
+      conv->numOutput != channels || conv->kernel_size.size() != 2 ||
+      conv->kernel_size[0] != conv->kernel_size[1] || conv->strides.size() != 2 ||
+      conv->strides[0] != conv->strides[1] || conv->pads_begin.size() != 2 ||
+      conv->pads_end.size() != 2 || conv->dilations.size() != 2)
+    return nullptr;
+  const cv::Mat bias = layer.blobs.size() > 1 ? layer.blobs[1] : cv::Mat();
+  const int k = int(conv->kernel_size[0]), stride = int(conv->strides[0]);
+  if (!BandedDepthwise::takes(layer.blobs[0], bias, channels, k, stride, int(conv->pads_begin[0]),
+                              int(conv->pads_begin[1]), int(conv->pads_end[0]),
+                              int(conv->pads_end[1]), int(conv->dilations[0]),
+                              int(conv->dilations[1])))
+    return nullptr;
+  return std::make_unique<BandedDepthwise>(layer.blobs[0], bias, stride);
+}
+
 // 1x1 convolution, stride 1, no padding, one group, by avx2_product.hpp; an activation after it
-// is applied as each stripe of columns is done.
+// is applied as each stripe of columns is done. Where a depthwise convolution is the only reader
+// of its (activated) output, it takes that one over too and runs both a band of rows at a time
+// (banded_depthwise.hpp), with the activations after the depthwise one.
 class PointwiseLayer final : public SameSizeLayer<PointwiseConvolution> {
  public:
   explicit PointwiseLayer(const cv::dnn::LayerParams& params)
-      : SameSizeLayer(params, "KeyfleetPointwise") {}
+      : SameSizeLayer(params, "KeyfleetPointwise"), may_band_(scope_layers().banded_depthwise) {}
 
   static bool handles(const cv::dnn::LayerParams& params,
                       const cv::dnn::BaseConvolutionLayer& geometry) {
     return same_size_convolution(params, geometry, 1);
   }
 
+  // OpenCV's fusion offers the layers after this one in turn, each the only reader of the one
+  // before, while this accepts: the activations (as setActivation would take them), then a
+  // depthwise convolution, then the activations after that.
+  bool tryFuse(cv::Ptr<cv::dnn::Layer>& top) override {
+    if (top.empty()) return false;
+    if (const auto activation = top.dynamicCast<cv::dnn::ActivationLayer>())
+      return setActivation(activation);
+    if (banded_ || !may_band_ || !kernel_.runs_columns() ||
+        output_bytes_ < BandedDepthwise::kSmallestOutputBytes)
+      return false;
+    if (const auto* depthwise = dynamic_cast<const DepthwiseLayer*>(top.get()))
+      banded_ = depthwise->banded(kernel_.output_channels());
+    else
+      banded_ = banded_opencv_depthwise(*top, kernel_.output_channels());
+    if (banded_) type = "KeyfleetPointwiseDepthwise";
+    return bool(banded_);
+  }
+
+  // An empty layer (OpenCV's unsetAttached, before it fuses the network again) undoes every
+  // fusion.
+  bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
+    if (layer.empty()) {
+      banded_.reset();
+      depthwise_activations_.add(layer);
+    }
+    return banded_ ? depthwise_activations_.add(layer) : activations_.add(layer);
+  }
+
+  // The size of an image's output of this layer, known before OpenCV fuses (it finalizes every
+  // layer first): only a large one is worth computing in bands.
+  void finalize(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays) override {
+    std::vector<cv::Mat> inputs;
+    inputs_arr.getMatVector(inputs);
+    output_bytes_ = inputs.empty() || inputs[0].dims != 4
+                        ? 0
+                        : std::size_t(inputs[0].size[2]) * std::size_t(inputs[0].size[3]) *
+                              std::size_t(kernel_.output_channels()) * sizeof(float);
+  }
+
+  void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
+               cv::OutputArrayOfArrays internals_arr) override {
+    if (!banded_) {
+      SameSizeLayer::forward(inputs_arr, outputs_arr, internals_arr);
+      return;
+    }
+    // The output is the depthwise layer's (OpenCV hands this layer the fused layer's blobs).
+    LayerIo io = float_layer_io(inputs_arr, outputs_arr, false);
+    const int h = io.in.size[2], w = io.in.size[3];
+    CV_Assert(io.out.dims == 4 && io.out.size[1] == kernel_.output_channels() &&
+              io.out.size[2] == banded_->output_side(h) &&
+              io.out.size[3] == banded_->output_side(w));
+    for (int n = 0; n < io.in.size[0]; ++n)
+      banded_->run(kernel_, activations_.get(), io.in.ptr<float>(n), h, w, io.out.ptr<float>(n),
+                   depthwise_activations_.get());
+  }
+
   void run(const float* in, int height, int width, float* out) override {
     kernel_.run(in, height * width, out, activations_.get());
   }
+
+ private:
+  bool may_band_;
+  std::size_t output_bytes_ = 0;
+  std::unique_ptr<BandedDepthwise> banded_;
+  ActivationChain depthwise_activations_;
 };
 
 // The same in 8-bit integers (pointwise_int8.hpp), where the scope asks for it.

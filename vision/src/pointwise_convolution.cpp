@@ -31,7 +31,7 @@ void PointwiseConvolution::run(const float* src, int pixels, float* dst,
       bfloat16_ ? bf16_product_block(cout_, pixels) : whole_rows_block(cout_, pixels);
   if (block.rows != block_.rows) pack(block);
   if (!bfloat16_ && cout_ % block_.rows == 0) {
-    run_in_place(src, pixels, dst, activation);
+    run_in_place(src, std::size_t(pixels), pixels, dst, std::size_t(pixels), activation);
     return;
   }
   const int width = block_.columns;
@@ -75,21 +75,32 @@ void PointwiseConvolution::run(const float* src, int pixels, float* dst,
   });
 }
 
-void PointwiseConvolution::run_in_place(const float* src, int pixels, float* dst,
+void PointwiseConvolution::run_columns(const float* src, std::size_t src_plane, int pixels,
+                                       float* dst, std::size_t dst_plane,
+                                       const cv::dnn::ActivationLayer* activation) {
+  CV_Assert(runs_columns());
+  const ProductBlock block = whole_rows_block(cout_, pixels);
+  if (block.rows != block_.rows) pack(block);
+  CV_Assert(cout_ % block_.rows == 0);
+  run_in_place(src, src_plane, pixels, dst, dst_plane, activation);
+}
+
+void PointwiseConvolution::run_in_place(const float* src, std::size_t src_plane, int pixels,
+                                        float* dst, std::size_t dst_plane,
                                         const cv::dnn::ActivationLayer* activation) {
-  // Whole blocks read src and write dst where they are (planes `pixels` apart); the columns'
-  // remainder, if any, is one block of its own, copied with zero columns after and multiplied
-  // into a small buffer, then copied into dst. Padding the whole input and the products instead
-  // took twice as long on a 16 -> 32 layer of 160 x 128 (the first 1x1 layer of PP-OCR's
-  // detector at 320x256).
+  // Whole blocks read src and write dst where they are (planes `src_plane` and `dst_plane`
+  // apart); the columns' remainder, if any, is one block of its own, copied with zero columns after
+  // and multiplied into a small buffer, then copied into dst. Padding the whole input and the
+  // products instead took twice as long on a 16 -> 32 layer of 160 x 128 (the first 1x1 layer of
+  // PP-OCR's detector at 320x256).
   const int width = block_.columns;
   const int whole = pixels / width, tail = pixels - whole * width;
   const int blocks = whole + (tail ? 1 : 0);
-  input_.use(src, pixels);
+  input_.use(src, src_plane);
   if (tail) {
     tail_input_buffer_.assign(std::size_t(cin_) * width, 0.f);
     for (int c = 0; c < cin_; ++c)
-      std::copy_n(src + std::size_t(c) * pixels + whole * width, tail,
+      std::copy_n(src + c * src_plane + whole * width, tail,
                   tail_input_buffer_.data() + std::size_t(c) * width);
     tail_input_.use(tail_input_buffer_.data(), width);
     products_.resize(std::size_t(cout_) * width);
@@ -100,13 +111,13 @@ void PointwiseConvolution::run_in_place(const float* src, int pixels, float* dst
   // and many outputs (PP-OCR's neck, 12 -> 96 channels, 7.4 MB at 640x480) went to reading in
   // the lines its first stores missed, as many streams as outputs.
   const bool large = depth >= total && !bfloat16_ &&
-                     std::size_t(cout_) * pixels * sizeof(float) >= kStreamedOutputBytes;
+                     std::size_t(cout_) * dst_plane * sizeof(float) >= kStreamedOutputBytes;
   const bool stream = large && !activation;
   // With an activation, a stripe's whole blocks are multiplied and activated in a buffer that
   // stays in L1, then streamed to dst (where its planes keep the vectors 32-byte aligned).
   constexpr int kStripe = 4;
   const std::size_t buffer_stride = std::size_t(kStripe) * width;
-  const bool stream_finished = large && activation && pixels % 8 == 0 && vector_aligned(dst);
+  const bool stream_finished = large && activation && dst_plane % 8 == 0 && vector_aligned(dst);
   const int stripes = (blocks + kStripe - 1) / kStripe;
   const int zero_shift = 0;
   cv::parallel_for_(cv::Range(0, stripes), [&](const cv::Range& range) {
@@ -120,7 +131,7 @@ void PointwiseConvolution::run_in_place(const float* src, int pixels, float* dst
           const bool is_tail = blk == whole;
           const ProductInput& in = is_tail ? tail_input_ : input_;
           const int n0 = is_tail ? 0 : blk * width;
-          std::size_t stride = pixels;
+          std::size_t stride = dst_plane;
           float* base = dst + n0;
           if (is_tail) {
             stride = width;
@@ -144,14 +155,14 @@ void PointwiseConvolution::run_in_place(const float* src, int pixels, float* dst
                                  cout_);
         for (int c = 0; c < cout_; ++c)
           stream_floats(stripe_buffer.data() + c * buffer_stride,
-                        dst + std::size_t(c) * pixels + first * width, n);
+                        dst + c * dst_plane + first * width, n);
       }
       if (last == blocks && tail)
         for (int c = 0; c < cout_; ++c)
           std::copy_n(products_.data() + std::size_t(c) * width, tail,
-                      dst + std::size_t(c) * pixels + whole * width);
+                      dst + c * dst_plane + whole * width);
       finish_columns(nullptr, pixels, cout_, (stream_finished ? whole_last : first) * width,
-                     std::min(pixels, last * width), dst, pixels, activation);
+                     std::min(pixels, last * width), dst, int(dst_plane), activation);
     }
     if (stream || stream_finished) stores_fence();  // the streamed lines visible before the end
   });

@@ -25,11 +25,19 @@ class PointwiseConvolution : public ProductKernel {
   // set contiguous; `activation` may be null. Runs on cv::parallel_for_'s threads; not reentrant.
   void run(const float* src, int pixels, float* dst, const cv::dnn::ActivationLayer* activation);
 
+  // Whether run_columns() takes this layer: float products whose row blocks divide the outputs.
+  bool runs_columns() const { return !bfloat16_ && cout_ % 2 == 0; }
+  // `pixels` columns of one image: src is input_channels planes `src_plane` floats apart, dst
+  // output_channels planes `dst_plane` apart (a band of rows of a larger image, say); as run()
+  // computes them. Requires runs_columns().
+  void run_columns(const float* src, std::size_t src_plane, int pixels, float* dst,
+                   std::size_t dst_plane, const cv::dnn::ActivationLayer* activation);
+
  private:
   void pack(ProductBlock block);  // the weights for blocks of that shape
   // Float, the outputs whole row blocks: src and dst used where they are.
-  void run_in_place(const float* src, int pixels, float* dst,
-                    const cv::dnn::ActivationLayer* activation);
+  void run_in_place(const float* src, std::size_t src_plane, int pixels, float* dst,
+                    std::size_t dst_plane, const cv::dnn::ActivationLayer* activation);
 
   // The block shape the weights are packed for (chosen per input size: in float, rows that divide
   // the outputs where a shape's do, else the least padding).

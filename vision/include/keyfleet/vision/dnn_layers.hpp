@@ -63,6 +63,9 @@ struct DnnLayers {
   // call): about 1.8x the multiply-adds per cycle of float on AVX2; outputs move by about 1 % of
   // their spread. Off unless asked for.
   bool int8_pointwise = false;
+  // A float 1x1 convolution and the depthwise convolution that alone reads its output, run a band
+  // of rows at a time so that output stays in cache (banded_depthwise.hpp): the same sums.
+  bool banded_depthwise = true;
   static DnnLayers opencv() {
     return {false, false, false, false, false, false, false,
             false, false, false, false, false, false, false};

@@ -1,0 +1,184 @@
+// A 1x1 stand-in takes over the depthwise convolution that alone reads its large output and runs
+// both a band of rows at a time (banded_depthwise.hpp): OpenCV's outputs to float rounding, with
+// the activations after each layer, strides 1 and 2, kernels 3 and 5, planes whose bands end
+// mid-image, two images; not where the output is small, has a second reader, or the stand-ins
+// say no; and again after OpenCV sets the network up anew for another input size.
+#include <gtest/gtest.h>
+
+#include <opencv2/dnn/shape_utils.hpp>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "keyfleet/vision/dnn_layers.hpp"
+
+namespace keyfleet::vision {
+namespace {
+
+struct Case {
+  int cin, channels, h, w, kernel, stride;
+  bool depthwise_activation;
+};
+
+cv::dnn::LayerParams convolution(const cv::Mat& weights, const cv::Mat& bias, int kernel,
+                                 int stride, int group) {
+  cv::dnn::LayerParams p;
+  p.type = "Convolution";
+  p.set("num_output", weights.size[0]);
+  p.set("kernel_size", kernel);
+  p.set("stride", stride);
+  p.set("pad", kernel / 2);
+  p.set("group", group);
+  p.set("bias_term", !bias.empty());
+  p.blobs = {weights};
+  if (!bias.empty()) p.blobs.push_back(bias);
+  return p;
+}
+
+cv::dnn::LayerParams activation(const char* type) {
+  cv::dnn::LayerParams p;
+  p.type = type;
+  if (std::string(type) == "Power") {  // a learnable affine block's scale and shift
+    p.set("scale", 0.75f);
+    p.set("shift", -0.25f);
+  }
+  return p;
+}
+
+struct Layers {
+  cv::Mat pointwise, pointwise_bias, depthwise, depthwise_bias;
+};
+
+// 1x1 -> ReLU -> Power -> depthwise [-> ReLU], optionally with the 1x1 layer's activated output
+// also read by a second layer (a sum with the depthwise output, stride 1); `type`: the type of
+// the layer that ran the 1x1 convolution.
+cv::Mat run(const Layers& l, const Case& c, const cv::Mat& input, std::optional<DnnLayers> layers,
+            bool second_reader = false, std::string* type = nullptr,
+            const cv::Mat* second_input = nullptr, cv::Mat* second_output = nullptr) {
+  std::optional<DnnLayersScope> scope;
+  if (layers) scope.emplace(*layers);
+  cv::dnn::Net net;
+  auto add = [&](const std::string& name, cv::dnn::LayerParams p) {
+    p.name = name;
+    return net.addLayerToPrev(name, p.type, p);
+  };
+  add("pointwise", convolution(l.pointwise, l.pointwise_bias, 1, 1, 1));
+  add("relu", activation("ReLU"));
+  const int affine = add("affine", activation("Power"));
+  const int depthwise =
+      add("depthwise", convolution(l.depthwise, l.depthwise_bias, c.kernel, c.stride, c.channels));
+  if (c.depthwise_activation) add("depthwise_relu", activation("ReLU"));
+  if (second_reader) {
+    cv::dnn::LayerParams sum;
+    sum.name = sum.type = "Eltwise";
+    const int id = net.addLayer(sum.name, sum.type, sum);
+    net.connect(c.depthwise_activation ? net.getLayerId("depthwise_relu") : depthwise, 0, id, 0);
+    net.connect(affine, 0, id, 1);
+  }
+  net.setInput(input);
+  cv::Mat out = net.forward().clone();
+  if (type) *type = net.getLayer("pointwise")->type;
+  if (second_input) {
+    net.setInput(*second_input);
+    *second_output = net.forward().clone();
+  }
+  return out;
+}
+
+Layers random_layers(cv::RNG& rng, const Case& c) {
+  Layers l{cv::Mat({c.channels, c.cin, 1, 1}, CV_32F), cv::Mat(1, c.channels, CV_32F),
+           cv::Mat({c.channels, 1, c.kernel, c.kernel}, CV_32F), cv::Mat(1, c.channels, CV_32F)};
+  for (cv::Mat* m : {&l.pointwise, &l.pointwise_bias, &l.depthwise, &l.depthwise_bias})
+    rng.fill(*m, cv::RNG::UNIFORM, -1, 1);
+  return l;
+}
+
+cv::Mat random_input(cv::RNG& rng, int images, int channels, int h, int w) {
+  cv::Mat input({images, channels, h, w}, CV_32F);
+  rng.fill(input, cv::RNG::UNIFORM, -2, 2);
+  return input;
+}
+
+bool supported() { return matrix_product_layers_supported(); }
+
+TEST(BandedDepthwise, MatchesOpenCvsTwoLayers) {
+  if (!supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layers stay";
+  // Outputs of 2 MB and more: PP-OCR's 16 -> 32 then 3x3 stride 2 (at 240 x 320 in its detector
+  // at 640x480, here smaller and of odd sides), 32 -> 48 then 3x3 stride 1 with an activation,
+  // 5x5 kernels both ways, a plane of one band's height and a width that is no whole block.
+  const std::vector<Case> cases = {{16, 32, 131, 127, 3, 2, false},
+                                   {32, 48, 120, 100, 3, 1, true},
+                                   {12, 40, 97, 141, 5, 2, true},
+                                   {8, 24, 170, 135, 5, 1, false},
+                                   {16, 2048, 4, 67, 3, 2, false}};
+  cv::RNG rng(41);
+  for (const Case& c : cases) {
+    const Layers l = random_layers(rng, c);
+    const cv::Mat input = random_input(rng, 2, c.cin, c.h, c.w);
+    std::string type;
+    const cv::Mat got = run(l, c, input, DnnLayers::in_float(), false, &type);
+    EXPECT_EQ(type, "KeyfleetPointwiseDepthwise") << c.cin << " -> " << c.channels;
+    const cv::Mat expected = run(l, c, input, DnnLayers::opencv());
+    const int side_h = (c.h - 1) / c.stride + 1, side_w = (c.w - 1) / c.stride + 1;
+    ASSERT_EQ(cv::dnn::shape(got), (cv::dnn::MatShape{2, c.channels, side_h, side_w}));
+    ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
+    // Sums of cin products of magnitude <= 2, then k x k of those (<= 2 cin + 1, scaled by
+    // 0.75), in another order than OpenCV's.
+    const double bound = 1e-6 * (2 * c.cin + 2) * (c.kernel * c.kernel + 1);
+    EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), bound)
+        << c.cin << " -> " << c.channels << ", " << c.w << "x" << c.h << ", k " << c.kernel
+        << " stride " << c.stride;
+  }
+}
+
+TEST(BandedDepthwise, OnlyWhereTheDepthwiseLayerAloneReadsALargeOutput) {
+  if (!supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layers stay";
+  cv::RNG rng(42);
+  const Case large{16, 32, 130, 128, 3, 1, false}, small{16, 32, 60, 64, 3, 2, false};
+  DnnLayers off = DnnLayers::in_float();
+  off.banded_depthwise = false;
+  struct Refusal {
+    const Case& c;
+    std::optional<DnnLayers> layers;
+    bool second_reader;
+    const char* why;
+  };
+  for (const Refusal& r : {Refusal{small, DnnLayers::in_float(), false, "a 0.5 MB output"},
+                           Refusal{large, DnnLayers::in_float(), true, "a second reader"},
+                           Refusal{large, off, false, "the stand-ins say no"}}) {
+    const Layers l = random_layers(rng, r.c);
+    const cv::Mat input = random_input(rng, 1, r.c.cin, r.c.h, r.c.w);
+    std::string type;
+    const cv::Mat got = run(l, r.c, input, r.layers, r.second_reader, &type);
+    EXPECT_EQ(type, "KeyfleetPointwise") << r.why;
+    const cv::Mat expected = run(l, r.c, input, DnnLayers::opencv(), r.second_reader);
+    EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-4) << r.why;
+  }
+}
+
+TEST(BandedDepthwise, SetUpAgainForAnotherInputSize) {
+  if (!supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layers stay";
+  // OpenCV undoes its fusions (unsetAttached) and fuses again when the input's shape changes:
+  // the 1x1 stand-in must neither keep a depthwise layer that now runs on its own nor apply its
+  // activations twice.
+  cv::RNG rng(43);
+  const Case c{16, 32, 131, 127, 3, 2, true};
+  const Layers l = random_layers(rng, c);
+  const cv::Mat first = random_input(rng, 1, c.cin, c.h, c.w);
+  const cv::Mat second = random_input(rng, 1, c.cin, 40, 36);  // too small to band
+  const cv::Mat third = random_input(rng, 1, c.cin, 150, 140);
+  for (const cv::Mat* next : {&second, &third}) {
+    cv::Mat got_next, expected_next;
+    const cv::Mat got = run(l, c, first, DnnLayers::in_float(), false, nullptr, next, &got_next);
+    const cv::Mat expected =
+        run(l, c, first, DnnLayers::opencv(), false, nullptr, next, &expected_next);
+    EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-4);
+    ASSERT_EQ(cv::dnn::shape(got_next), cv::dnn::shape(expected_next));
+    EXPECT_LT(cv::norm(got_next, expected_next, cv::NORM_INF), 1e-4)
+        << next->size[3] << "x" << next->size[2];
+  }
+}
+
+}  // namespace
+}  // namespace keyfleet::vision
