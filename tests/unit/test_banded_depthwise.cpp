@@ -1,8 +1,9 @@
-// A 1x1 stand-in takes over the depthwise convolution that alone reads its large output and runs
-// both a band of rows at a time (banded_depthwise.hpp): OpenCV's outputs to float rounding, with
-// the activations after each layer, strides 1 and 2, kernels 3 and 5, planes whose bands end
-// mid-image, two images; not where the output is small, has a second reader, or the stand-ins
-// say no; and again after OpenCV sets the network up anew for another input size.
+// A 1x1 stand-in (and the stride-2 first layer's) takes over the depthwise convolution that alone
+// reads its large output and runs both a band of rows at a time (banded_depthwise.hpp): OpenCV's
+// outputs to float rounding, with the activations after each layer, strides 1 and 2, kernels 3
+// and 5, planes whose bands end mid-image, two images; not where the output is small, has a
+// second reader, or the stand-ins say no; and again after OpenCV sets the network up anew for
+// another input size.
 #include <gtest/gtest.h>
 
 #include <opencv2/dnn/shape_utils.hpp>
@@ -130,6 +131,42 @@ TEST(BandedDepthwise, MatchesOpenCvsTwoLayers) {
         << c.cin << " -> " << c.channels << ", " << c.w << "x" << c.h << ", k " << c.kernel
         << " stride " << c.stride;
   }
+}
+
+TEST(BandedDepthwise, AfterTheStride2FirstLayer) {
+  if (!supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layers stay";
+  // PP-OCR's first two layers: 3 -> 16, 3x3 stride 2, a batch norm's scale and shift, then a 3x3
+  // depthwise layer and its activation (at 640x480 the first output is 4.9 MB); here of odd sides.
+  cv::RNG rng(44);
+  cv::Mat first({16, 3, 3, 3}, CV_32F), first_bias(1, 16, CV_32F), depthwise({16, 1, 3, 3}, CV_32F),
+      depthwise_bias(1, 16, CV_32F);
+  for (cv::Mat* m : {&first, &first_bias, &depthwise, &depthwise_bias})
+    rng.fill(*m, cv::RNG::UNIFORM, -1, 1);
+  const cv::Mat input = random_input(rng, 2, 3, 391, 349);
+  auto forward = [&](std::optional<DnnLayers> layers, std::string* type) {
+    std::optional<DnnLayersScope> scope;
+    if (layers) scope.emplace(*layers);
+    cv::dnn::Net net;
+    auto add = [&](const std::string& name, cv::dnn::LayerParams p) {
+      p.name = name;
+      net.addLayerToPrev(name, p.type, p);
+    };
+    add("first", convolution(first, first_bias, 3, 2, 1));
+    add("affine", activation("Power"));
+    add("depthwise", convolution(depthwise, depthwise_bias, 3, 1, 16));
+    add("relu", activation("ReLU"));
+    net.setInput(input);
+    cv::Mat out = net.forward().clone();
+    if (type) *type = net.getLayer("first")->type;
+    return out;
+  };
+  std::string type;
+  const cv::Mat got = forward(DnnLayers::in_float(), &type);
+  EXPECT_EQ(type, "KeyfleetStridedDepthwise");
+  const cv::Mat expected = forward(DnnLayers::opencv(), nullptr);
+  ASSERT_EQ(cv::dnn::shape(got), (cv::dnn::MatShape{2, 16, 196, 175}));
+  ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
+  EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * 56 * 10);
 }
 
 TEST(BandedDepthwise, OnlyWhereTheDepthwiseLayerAloneReadsALargeOutput) {

@@ -9,7 +9,7 @@
 namespace keyfleet::vision {
 namespace {
 
-// The band's buffer of the 1x1 layer's rows: half of a small L2 (Zen 3's 512 KB), so that the
+// The band's buffer of the first layer's rows: half of a small L2 (Zen 3's 512 KB), so that the
 // input rows it reads and the weights stay beside it. PP-OCR's 16 -> 32 then 3x3 stride 2 at
 // 640x480 (one thread, AVX2): 1.85 ms with 256 KB, 1.75 with 512, 2.0 with 64 (unbanded 2.7).
 constexpr std::size_t kBandBytes = std::size_t(256) << 10;
@@ -39,11 +39,10 @@ bool BandedDepthwise::takes(const cv::Mat& weights, const cv::Mat& bias, int cha
          (bias.empty() || (bias.type() == CV_32F && int(bias.total()) == channels));
 }
 
-void BandedDepthwise::run(PointwiseConvolution& pointwise,
-                          const cv::dnn::ActivationLayer* pointwise_activation, const float* src,
-                          int h, int w, float* dst, const cv::dnn::ActivationLayer* activation) {
+void BandedDepthwise::run(const Rows& produce, int h, int w, float* dst,
+                          const cv::dnn::ActivationLayer* activation) {
   const int pad = kernel_ / 2, ho = output_side(h), wo = output_side(w);
-  const std::size_t in_plane = std::size_t(h) * w, out_plane = std::size_t(ho) * wo;
+  const std::size_t out_plane = std::size_t(ho) * wo;
   // Output rows [y0, y0 + rows) read input rows y0 s - pad .. (y0 + rows - 1) s - pad + k - 1:
   // rows s + k - s of them; as many output rows as the buffer holds, at least one.
   const std::size_t row_bytes = std::size_t(channels_) * w * sizeof(float);
@@ -65,9 +64,7 @@ void BandedDepthwise::run(PointwiseConvolution& pointwise,
         std::copy_n(plane + std::size_t(first - held_first) * w, std::size_t(kept) * w, plane);
       }
     if (last > first + kept)
-      pointwise.run_columns(src + std::size_t(first + kept) * w, in_plane,
-                            (last - first - kept) * w, band_.data() + std::size_t(kept) * w,
-                            band_plane, pointwise_activation);
+      produce(first + kept, last, band_.data() + std::size_t(kept) * w, band_plane);
     held_first = first;
     held_last = last;
     // Output row y reads band row (y - y0) s - top + ky: rows above the image are zero padding.

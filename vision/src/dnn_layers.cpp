@@ -493,6 +493,60 @@ std::unique_ptr<BandedDepthwise> banded_opencv_depthwise(const cv::dnn::Layer& l
   return std::make_unique<BandedDepthwise>(layer.blobs[0], bias, stride);
 }
 
+// What a stand-in that may take over the depthwise convolution after it holds for that
+// (banded_depthwise.hpp): whether the stand-ins allow it, the size of an image's output of the
+// layer, the fused depthwise layer and the activations after it.
+class DepthwiseFusion {
+ public:
+  DepthwiseFusion() : may_(scope_layers().banded_depthwise) {}
+
+  // For OpenCV's tryFuse of `top` (not an activation) after a layer of `channels` outputs whose
+  // kernel can write rows where asked (`can`); then the layer's type becomes `fused_type`.
+  bool take(const cv::dnn::Layer& top, int channels, bool can) {
+    if (banded_ || !may_ || !can || output_bytes_ < BandedDepthwise::kSmallestOutputBytes)
+      return false;
+    if (const auto* depthwise = dynamic_cast<const DepthwiseLayer*>(&top))
+      banded_ = depthwise->banded(channels);
+    else
+      banded_ = banded_opencv_depthwise(top, channels);
+    return bool(banded_);
+  }
+
+  // An activation for the layer's own chain or, once fused, the depthwise layer's; an empty one
+  // (OpenCV's unsetAttached, before it fuses the network again) undoes every fusion.
+  bool add_activation(const cv::Ptr<cv::dnn::ActivationLayer>& layer, ActivationChain& own) {
+    if (layer.empty()) {
+      banded_.reset();
+      activations_.add(layer);
+    }
+    return banded_ ? activations_.add(layer) : own.add(layer);
+  }
+
+  // The layer's output plane (h x w, `channels` of them), from finalize(): OpenCV finalizes
+  // every layer before it fuses any.
+  void note_output(int channels, int height, int width) {
+    output_bytes_ =
+        std::size_t(channels) * std::size_t(height) * std::size_t(width) * sizeof(float);
+  }
+
+  BandedDepthwise* banded() const { return banded_.get(); }
+  const cv::dnn::ActivationLayer* activation() const { return activations_.get(); }
+
+ private:
+  bool may_;
+  std::size_t output_bytes_ = 0;
+  std::unique_ptr<BandedDepthwise> banded_;
+  ActivationChain activations_;
+};
+
+// The fused layer's output (OpenCV hands the layer the depthwise layer's blobs) checked against
+// the depthwise layer's geometry for an input plane of h x w and `channels`.
+void check_fused_output(const cv::Mat& out, const BandedDepthwise& banded, int channels, int h,
+                        int w) {
+  CV_Assert(out.dims == 4 && out.size[1] == channels && out.size[2] == banded.output_side(h) &&
+            out.size[3] == banded.output_side(w));
+}
+
 // 1x1 convolution, stride 1, no padding, one group, by avx2_product.hpp; an activation after it
 // is applied as each stripe of columns is done. Where a depthwise convolution is the only reader
 // of its (activated) output, it takes that one over too and runs both a band of rows at a time
@@ -500,7 +554,7 @@ std::unique_ptr<BandedDepthwise> banded_opencv_depthwise(const cv::dnn::Layer& l
 class PointwiseLayer final : public SameSizeLayer<PointwiseConvolution> {
  public:
   explicit PointwiseLayer(const cv::dnn::LayerParams& params)
-      : SameSizeLayer(params, "KeyfleetPointwise"), may_band_(scope_layers().banded_depthwise) {}
+      : SameSizeLayer(params, "KeyfleetPointwise") {}
 
   static bool handles(const cv::dnn::LayerParams& params,
                       const cv::dnn::BaseConvolutionLayer& geometry) {
@@ -514,53 +568,41 @@ class PointwiseLayer final : public SameSizeLayer<PointwiseConvolution> {
     if (top.empty()) return false;
     if (const auto activation = top.dynamicCast<cv::dnn::ActivationLayer>())
       return setActivation(activation);
-    if (banded_ || !may_band_ || !kernel_.runs_columns() ||
-        output_bytes_ < BandedDepthwise::kSmallestOutputBytes)
-      return false;
-    if (const auto* depthwise = dynamic_cast<const DepthwiseLayer*>(top.get()))
-      banded_ = depthwise->banded(kernel_.output_channels());
-    else
-      banded_ = banded_opencv_depthwise(*top, kernel_.output_channels());
-    if (banded_) type = "KeyfleetPointwiseDepthwise";
-    return bool(banded_);
+    if (!fusion_.take(*top, kernel_.output_channels(), kernel_.runs_columns())) return false;
+    type = "KeyfleetPointwiseDepthwise";
+    return true;
   }
 
-  // An empty layer (OpenCV's unsetAttached, before it fuses the network again) undoes every
-  // fusion.
   bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
-    if (layer.empty()) {
-      banded_.reset();
-      depthwise_activations_.add(layer);
-    }
-    return banded_ ? depthwise_activations_.add(layer) : activations_.add(layer);
+    return fusion_.add_activation(layer, activations_);
   }
 
-  // The size of an image's output of this layer, known before OpenCV fuses (it finalizes every
-  // layer first): only a large one is worth computing in bands.
   void finalize(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays) override {
     std::vector<cv::Mat> inputs;
     inputs_arr.getMatVector(inputs);
-    output_bytes_ = inputs.empty() || inputs[0].dims != 4
-                        ? 0
-                        : std::size_t(inputs[0].size[2]) * std::size_t(inputs[0].size[3]) *
-                              std::size_t(kernel_.output_channels()) * sizeof(float);
+    if (!inputs.empty() && inputs[0].dims == 4)
+      fusion_.note_output(kernel_.output_channels(), inputs[0].size[2], inputs[0].size[3]);
   }
 
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
                cv::OutputArrayOfArrays internals_arr) override {
-    if (!banded_) {
+    BandedDepthwise* banded = fusion_.banded();
+    if (!banded) {
       SameSizeLayer::forward(inputs_arr, outputs_arr, internals_arr);
       return;
     }
-    // The output is the depthwise layer's (OpenCV hands this layer the fused layer's blobs).
     LayerIo io = float_layer_io(inputs_arr, outputs_arr, false);
     const int h = io.in.size[2], w = io.in.size[3];
-    CV_Assert(io.out.dims == 4 && io.out.size[1] == kernel_.output_channels() &&
-              io.out.size[2] == banded_->output_side(h) &&
-              io.out.size[3] == banded_->output_side(w));
-    for (int n = 0; n < io.in.size[0]; ++n)
-      banded_->run(kernel_, activations_.get(), io.in.ptr<float>(n), h, w, io.out.ptr<float>(n),
-                   depthwise_activations_.get());
+    check_fused_output(io.out, *banded, kernel_.output_channels(), h, w);
+    for (int n = 0; n < io.in.size[0]; ++n) {
+      const float* src = io.in.ptr<float>(n);
+      banded->run(
+          [&](int first, int last, float* band, std::size_t band_plane) {
+            kernel_.run_columns(src + std::size_t(first) * w, std::size_t(h) * w,
+                                (last - first) * w, band, band_plane, activations_.get());
+          },
+          h, w, io.out.ptr<float>(n), fusion_.activation());
+    }
   }
 
   void run(const float* in, int height, int width, float* out) override {
@@ -568,10 +610,7 @@ class PointwiseLayer final : public SameSizeLayer<PointwiseConvolution> {
   }
 
  private:
-  bool may_band_;
-  std::size_t output_bytes_ = 0;
-  std::unique_ptr<BandedDepthwise> banded_;
-  ActivationChain depthwise_activations_;
+  DepthwiseFusion fusion_;
 };
 
 // The same in 8-bit integers (pointwise_int8.hpp), where the scope asks for it.
@@ -649,21 +688,56 @@ class StridedConvolutionLayer final : public cv::dnn::Layer {
     return false;
   }
 
+  // As the 1x1 stand-in's: the activations, then a depthwise convolution that alone reads the
+  // (large) activated output, then the activations after that (PP-OCR's first two layers).
+  bool tryFuse(cv::Ptr<cv::dnn::Layer>& top) override {
+    if (top.empty()) return false;
+    if (const auto activation = top.dynamicCast<cv::dnn::ActivationLayer>())
+      return setActivation(activation);
+    if (!fusion_.take(*top, kernel_.output_channels(), true)) return false;
+    type = "KeyfleetStridedDepthwise";
+    return true;
+  }
+
   bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
-    return activations_.add(layer);
+    return fusion_.add_activation(layer, activations_);
+  }
+
+  void finalize(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays) override {
+    std::vector<cv::Mat> inputs;
+    inputs_arr.getMatVector(inputs);
+    if (!inputs.empty() && inputs[0].dims == 4)
+      fusion_.note_output(kernel_.output_channels(), kernel_.output_side(inputs[0].size[2]),
+                          kernel_.output_side(inputs[0].size[3]));
   }
 
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
                cv::OutputArrayOfArrays) override {
     LayerIo io = float_layer_io(inputs_arr, outputs_arr, false);
-    for (int n = 0; n < io.in.size[0]; ++n)
-      kernel_.run(io.in.ptr<float>(n), io.in.size[2], io.in.size[3], io.out.ptr<float>(n),
-                  activations_.get());
+    const int h = io.in.size[2], w = io.in.size[3];
+    BandedDepthwise* banded = fusion_.banded();
+    if (banded)
+      check_fused_output(io.out, *banded, kernel_.output_channels(), kernel_.output_side(h),
+                         kernel_.output_side(w));
+    for (int n = 0; n < io.in.size[0]; ++n) {
+      const float* src = io.in.ptr<float>(n);
+      if (!banded) {
+        kernel_.run(src, h, w, io.out.ptr<float>(n), activations_.get());
+        continue;
+      }
+      banded->run(
+          [&](int first, int last, float* band, std::size_t band_plane) {
+            kernel_.run_rows(src, h, w, first, last, band, band_plane, activations_.get());
+          },
+          kernel_.output_side(h), kernel_.output_side(w), io.out.ptr<float>(n),
+          fusion_.activation());
+    }
   }
 
  private:
   StridedConvolution kernel_;
   ActivationChain activations_;
+  DepthwiseFusion fusion_;
 };
 
 // The scope's stand-in for a convolution of that geometry, else OpenCV's.

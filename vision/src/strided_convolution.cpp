@@ -21,9 +21,17 @@ void StridedConvolution::run(const float* src, int h, int w, float* dst,
                              const cv::dnn::ActivationLayer* activation) {
   const int ho = output_side(h), wo = output_side(w);
   CV_Assert(ho > 0 && wo > 0);
+  run_rows(src, h, w, 0, ho, dst, std::size_t(ho) * wo, activation);
+}
+
+void StridedConvolution::run_rows(const float* src, int h, int w, int first, int last, float* dst,
+                                  std::size_t dst_plane,
+                                  const cv::dnn::ActivationLayer* activation) {
+  const int ho = output_side(h), wo = output_side(w);
+  CV_Assert(ho > 0 && wo > 0 && first >= 0 && first < last && last <= ho);
   const int taps = cin_ * k_ * k_;
   // Bands of output rows whose planes stay in L2 (at 640x480 the whole image's would be 8 MB).
-  const int band = std::clamp(kBandFloats / (taps * wo), 1, ho);
+  const int band = std::clamp(kBandFloats / (taps * wo), 1, last - first);
   columns_.resize(std::size_t(taps) * band * wo);
   products_.resize(std::size_t(output_channels()) * band * wo);
   // A bordered row: pad zeros, the input row, zeros up to the last tap's column.
@@ -31,9 +39,8 @@ void StridedConvolution::run(const float* src, int h, int w, float* dst,
   row_.assign(std::size_t(width), 0.f);
   even_.resize(std::size_t(width + 1) / 2);
   odd_.resize(std::size_t(width + 1) / 2);
-  const std::size_t out_plane = std::size_t(ho) * wo;
-  for (int y0 = 0; y0 < ho; y0 += band) {
-    const int y1 = std::min(ho, y0 + band);
+  for (int y0 = first; y0 < last; y0 += band) {
+    const int y1 = std::min(last, y0 + band);
     const std::size_t pixels = std::size_t(y1 - y0) * wo;
     for (int c = 0; c < cin_; ++c) {
       const float* plane = src + std::size_t(c) * h * w;
@@ -62,7 +69,7 @@ void StridedConvolution::run(const float* src, int h, int w, float* dst,
     }
     product_.run(columns_.data(), int(pixels), products_.data(), activation);
     for (int o = 0; o < output_channels(); ++o)  // whole rows: one run of each output plane
-      std::memcpy(dst + o * out_plane + std::size_t(y0) * wo, products_.data() + o * pixels,
+      std::memcpy(dst + o * dst_plane + std::size_t(y0 - first) * wo, products_.data() + o * pixels,
                   sizeof(float) * pixels);
   }
 }

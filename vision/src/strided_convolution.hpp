@@ -28,6 +28,9 @@ class StridedConvolution {
   // One image: src is input_channels planes of h x w, dst output_channels planes of
   // output_side(h) x output_side(w); `activation` may be null. Not reentrant.
   void run(const float* src, int h, int w, float* dst, const cv::dnn::ActivationLayer* activation);
+  // Output rows [y0, y1) only, into dst (row y0 of each plane; planes `dst_plane` floats apart).
+  void run_rows(const float* src, int h, int w, int y0, int y1, float* dst, std::size_t dst_plane,
+                const cv::dnn::ActivationLayer* activation);
 
  private:
   int cin_, k_, pad_;
