@@ -284,6 +284,67 @@ def fold_output_affines(model):
     return count
 
 
+def fold_transposed_affines(model):
+    """PP-OCRv4's DB head adds each transposed convolution's bias as a constant of its own
+    (ConvTranspose -> Add(c)), the first then normalised (-> BatchNormalization); OpenCV runs
+    each as a full-size pass of its own (the first three over 7.4 MB at 640x480) and, as the Add
+    is no activation, cannot fuse the ReLU or Sigmoid after them either.  The transposed
+    convolution computes the same with weights s W and bias s (b + c) + beta - s mean, s =
+    gamma / sqrt(var + eps) per output channel (exact to float rounding)."""
+    graph = model.graph
+    graph_outputs = {o.name for o in graph.output}
+    count = 0
+    for conv in list(graph.node):
+        if conv.op_type != "ConvTranspose" or len(conv.input) < 2 or conv.output[0] in graph_outputs:
+            continue
+        groups = [a.i for a in conv.attribute if a.name == "group"]
+        weights = get_const(graph, conv.input[1])
+        if weights is None or (groups and groups[0] != 1):
+            continue
+        outputs = weights.shape[1]  # [inputs, outputs, kh, kw]
+        bias = get_const(graph, conv.input[2]) if len(conv.input) > 2 else np.zeros(outputs, np.float32)
+        if bias is None:
+            continue
+        last = conv
+        add = _only_consumer(graph, conv.output[0], "Add")
+        shift = _constant_operand(graph, add)[0] if add is not None else None
+        if shift is not None and shift.size in (1, outputs) and shift.ndim in (0, 1, 4) and \
+                (shift.ndim != 4 or shift.shape[1] == shift.size):
+            bias = bias + np.broadcast_to(shift.reshape(-1), (outputs,))
+            last = add
+        else:
+            add = None
+        scale = np.ones(outputs, np.float32)
+        norm = None if last.output[0] in graph_outputs else \
+            _only_consumer(graph, last.output[0], "BatchNormalization")
+        stats = [get_const(graph, name) for name in norm.input[1:5]] if norm is not None else []
+        if norm is not None and len(norm.output) == 1 and all(
+                v is not None and v.size == outputs for v in stats):
+            gamma, beta, mean, var = (v.reshape(-1).astype(np.float64) for v in stats)
+            eps = next((a.f for a in norm.attribute if a.name == "epsilon"), 1e-5)
+            s = gamma / np.sqrt(var + eps)
+            bias = bias * s + beta - mean * s
+            scale = s
+            last = norm
+        else:
+            norm = None
+        if add is None and norm is None:
+            continue
+        w_name = unique_name(graph, conv.input[1] + "_folded")
+        set_const(graph, w_name, (weights * scale.reshape(1, -1, 1, 1)).astype(np.float32))
+        b_name = unique_name(graph, conv.output[0] + "_bias")
+        set_const(graph, b_name, np.asarray(bias, np.float64).astype(np.float32))
+        conv_input = conv.input[0]
+        del conv.input[:]
+        conv.input.extend([conv_input, w_name, b_name])
+        conv.output[0] = last.output[0]
+        for node in (add, norm):
+            if node is not None:
+                graph.node.remove(node)
+        count += 1
+    return count
+
+
 def fuse_residual_excitation(model):
     """PP-OCRv4's neck (its RSE layers) adds a convolution's output x to itself scaled by its
     squeeze-and-excitation gate g (N x C x 1 x 1, a HardSigmoid): x + x * g.  x * (g + 1) is
@@ -328,13 +389,15 @@ def convert_detector(src, dst, width, height, fuse=True):
     n_affine = fold_output_affines(model) if fuse else 0
     n_hard_swish = fuse_hard_swish(model) if fuse else 0
     n_excitation = fuse_residual_excitation(model) if fuse else 0
+    n_transposed = fold_transposed_affines(model) if fuse else 0
     remove_dead_nodes(model)
     # Opset 11 Clip with attributes is not valid ONNX any more (onnx.checker and
     # ONNX Runtime refuse it); only OpenCV reads this file.  To compare with ONNX
     # Runtime, run the ORIGINAL model there.
     onnx.save(model, dst)
     return {"clip_nodes_rewritten": n_clip, "affines_folded": n_affine,
-            "hard_swish_fused": n_hard_swish, "residual_excitations_fused": n_excitation}
+            "hard_swish_fused": n_hard_swish, "residual_excitations_fused": n_excitation,
+            "transposed_affines_folded": n_transposed}
 
 
 def conv_flops(model):

