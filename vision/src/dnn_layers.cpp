@@ -530,6 +530,7 @@ class DepthwiseFusion {
   }
 
   BandedDepthwise* banded() const { return banded_.get(); }
+  std::vector<float>& scratch() { return scratch_; }  // FusedOutput's
   const cv::dnn::ActivationLayer* activation() const { return activations_.get(); }
 
  private:
@@ -537,6 +538,7 @@ class DepthwiseFusion {
   std::size_t output_bytes_ = 0;
   std::unique_ptr<BandedDepthwise> banded_;
   ActivationChain activations_;
+  std::vector<float> scratch_;
 };
 
 // The fused layer's output (OpenCV hands the layer the depthwise layer's blobs) checked against
@@ -594,6 +596,7 @@ class PointwiseLayer final : public SameSizeLayer<PointwiseConvolution> {
     LayerIo io = float_layer_io(inputs_arr, outputs_arr, false);
     const int h = io.in.size[2], w = io.in.size[3];
     check_fused_output(io.out, *banded, kernel_.output_channels(), h, w);
+    const FusedOutput out(io.in, io.out, fusion_.scratch());
     for (int n = 0; n < io.in.size[0]; ++n) {
       const float* src = io.in.ptr<float>(n);
       banded->run(
@@ -601,8 +604,9 @@ class PointwiseLayer final : public SameSizeLayer<PointwiseConvolution> {
             kernel_.run_columns(src + std::size_t(first) * w, std::size_t(h) * w,
                                 (last - first) * w, band, band_plane, activations_.get());
           },
-          h, w, io.out.ptr<float>(n), fusion_.activation());
+          h, w, out.image(n), fusion_.activation());
     }
+    out.apply();
   }
 
   void run(const float* in, int height, int width, float* out) override {
@@ -716,22 +720,23 @@ class StridedConvolutionLayer final : public cv::dnn::Layer {
     LayerIo io = float_layer_io(inputs_arr, outputs_arr, false);
     const int h = io.in.size[2], w = io.in.size[3];
     BandedDepthwise* banded = fusion_.banded();
-    if (banded)
-      check_fused_output(io.out, *banded, kernel_.output_channels(), kernel_.output_side(h),
-                         kernel_.output_side(w));
+    if (!banded) {
+      for (int n = 0; n < io.in.size[0]; ++n)
+        kernel_.run(io.in.ptr<float>(n), h, w, io.out.ptr<float>(n), activations_.get());
+      return;
+    }
+    check_fused_output(io.out, *banded, kernel_.output_channels(), kernel_.output_side(h),
+                       kernel_.output_side(w));
+    const FusedOutput out(io.in, io.out, fusion_.scratch());
     for (int n = 0; n < io.in.size[0]; ++n) {
       const float* src = io.in.ptr<float>(n);
-      if (!banded) {
-        kernel_.run(src, h, w, io.out.ptr<float>(n), activations_.get());
-        continue;
-      }
       banded->run(
           [&](int first, int last, float* band, std::size_t band_plane) {
             kernel_.run_rows(src, h, w, first, last, band, band_plane, activations_.get());
           },
-          kernel_.output_side(h), kernel_.output_side(w), io.out.ptr<float>(n),
-          fusion_.activation());
+          kernel_.output_side(h), kernel_.output_side(w), out.image(n), fusion_.activation());
     }
+    out.apply();
   }
 
  private:
@@ -791,9 +796,80 @@ class SubpixelDeconvolutionLayer final : public ProductLayer<SubpixelDeconvoluti
     return false;
   }
 
+  // PP-OCR's DB head: a wide 2x2 layer whose large activated output only a narrow 2x2 layer
+  // reads (24 -> 24 -> 1; 7.4 MB at 640x480) takes that one over and runs both a band of rows
+  // at a time, as the 1x1 stand-in does with a depthwise layer: the activations, then the narrow
+  // layer, then its activations.
+  bool tryFuse(cv::Ptr<cv::dnn::Layer>& top) override {
+    if (top.empty()) return false;
+    if (const auto activation = top.dynamicCast<cv::dnn::ActivationLayer>())
+      return setActivation(activation);
+    const auto* narrow = dynamic_cast<const SubpixelDeconvolutionLayer*>(top.get());
+    if (second_ || !may_pair_ || !narrow || !kernel_.wide_2x2() || !narrow->kernel_.narrow_2x2() ||
+        narrow->kernel_.input_channels() != kernel_.output_channels() ||
+        output_bytes_ < BandedDepthwise::kSmallestOutputBytes)
+      return false;
+    second_ = top.staticCast<SubpixelDeconvolutionLayer>();
+    type = "KeyfleetSubpixelDeconvolutionPair";
+    return true;
+  }
+
+  // An empty layer (OpenCV's unsetAttached) undoes the pair, as DepthwiseFusion's.
+  bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
+    if (layer.empty()) {
+      second_.release();
+      second_activations_.add(layer);
+    }
+    return second_ ? second_activations_.add(layer) : activations_.add(layer);
+  }
+
+  void finalize(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays) override {
+    std::vector<cv::Mat> inputs;
+    inputs_arr.getMatVector(inputs);
+    if (!inputs.empty() && inputs[0].dims == 4)
+      output_bytes_ = std::size_t(kernel_.output_channels()) * 4 * inputs[0].size[2] *
+                      std::size_t(inputs[0].size[3]) * sizeof(float);
+  }
+
+  void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
+               cv::OutputArrayOfArrays internals_arr) override {
+    if (!second_) {
+      ProductLayer::forward(inputs_arr, outputs_arr, internals_arr);
+      return;
+    }
+    LayerIo io = float_layer_io(inputs_arr, outputs_arr, false);
+    const int h = io.in.size[2], w = io.in.size[3], channels = kernel_.output_channels();
+    SubpixelDeconvolution& narrow = second_->kernel_;
+    CV_Assert(io.out.dims == 4 && io.out.size[1] == narrow.output_channels() &&
+              io.out.size[2] == 4 * h && io.out.size[3] == 4 * w);
+    // Bands of input rows whose first output (channels planes of 2 rows x 2w a row) takes about
+    // 256 KB, as BandedDepthwise's.
+    const int rows = std::clamp(int(kPairBandFloats / (std::size_t(channels) * 4 * w)), 1, h);
+    band_.resize(std::size_t(channels) * 4 * rows * w);
+    const std::size_t out_plane = std::size_t(16) * h * w;
+    const FusedOutput out(io.in, io.out, scratch_);
+    for (int n = 0; n < io.in.size[0]; ++n)
+      for (int y0 = 0; y0 < h; y0 += rows) {
+        const int y1 = std::min(h, y0 + rows);
+        kernel_.run_2x2_band(io.in.ptr<float>(n), h, w, y0, y1, band_.data(), activations_.get());
+        narrow.run_narrow(band_.data(), 2 * (y1 - y0), 2 * w,
+                          out.image(n) + std::size_t(4 * y0) * 4 * w, out_plane,
+                          second_activations_.get());
+      }
+    out.apply();
+  }
+
   void run(const float* in, int height, int width, float* out) override {
     kernel_.run(in, height, width, out, activations_.get());
   }
+
+ private:
+  static constexpr std::size_t kPairBandFloats = 64 * 1024;
+  bool may_pair_ = scope_layers().banded_depthwise;
+  std::size_t output_bytes_ = 0;
+  cv::Ptr<SubpixelDeconvolutionLayer> second_;
+  ActivationChain second_activations_;
+  std::vector<float> band_, scratch_;
 };
 
 cv::Ptr<cv::dnn::Layer> create_deconvolution(cv::dnn::LayerParams& params) {

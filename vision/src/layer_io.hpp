@@ -3,6 +3,7 @@
 // to be float. Internal to keyfleet_vision (dnn_layers.cpp, dense_layers.cpp).
 #include <opencv2/core.hpp>
 
+#include <algorithm>
 #include <vector>
 
 namespace keyfleet::vision {
@@ -23,5 +24,34 @@ inline LayerIo float_layer_io(cv::InputArrayOfArrays inputs_arr,
             (!continuous_output || io.out.isContinuous()));
   return io;
 }
+
+// Where a fused layer writes its output. OpenCV lays the blobs out before it fuses layers, so the
+// output (the last fused layer's) may take memory the first layer's input holds: in the unfused
+// order that input is dead by then, but a fused layer computing band by band still reads it.
+// Where the two overlap, `scratch` (resized) is written instead and apply() copies it back.
+class FusedOutput {
+ public:
+  FusedOutput(const cv::Mat& in, cv::Mat& out, std::vector<float>& scratch)
+      : out_(out), per_image_(out.total() / std::size_t(out.size[0])) {
+    overlap_ = in.datastart < out.dataend && out.datastart < in.dataend;
+    if (overlap_) scratch.resize(out.total());
+    scratch_ = overlap_ ? scratch.data() : nullptr;
+  }
+  // Image n's planes, contiguous (a slice of a concatenation keeps its images apart).
+  float* image(int n) const {
+    return overlap_ ? scratch_ + std::size_t(n) * per_image_ : out_.ptr<float>(n);
+  }
+  void apply() const {
+    if (!overlap_) return;
+    for (int n = 0; n < out_.size[0]; ++n)
+      std::copy_n(scratch_ + std::size_t(n) * per_image_, per_image_, out_.ptr<float>(n));
+  }
+
+ private:
+  cv::Mat& out_;
+  std::size_t per_image_;
+  bool overlap_;
+  float* scratch_;
+};
 
 }  // namespace keyfleet::vision

@@ -55,8 +55,8 @@ __attribute__((target("avx2,fma"))) inline void store_zipped(float* row, __m256 
 // time summed in registers (the four phases of two vectors), then the activation on those rows.
 __attribute__((target("avx2,fma"))) void narrow_2x2_rows(
     const float* src, int cin, int h, int w, const float* weights, int cout, int co, float bias,
-    int y0, int y1, float* dst, const cv::dnn::ActivationLayer* activation) {
-  const std::size_t plane = std::size_t(h) * w, out_plane = 4 * plane;
+    int y0, int y1, float* dst, std::size_t out_plane, const cv::dnn::ActivationLayer* activation) {
+  const std::size_t plane = std::size_t(h) * w;
   float* out = dst + co * out_plane;
   for (int y = y0; y < y1; ++y) {
     float* row0 = out + std::size_t(2 * y) * 2 * w;
@@ -203,7 +203,7 @@ void SubpixelDeconvolution::run_2x2(const float* src, int h, int w, float* dst,
       for (int i = range.start; i < range.end; ++i) {
         const int co = i / bands, y0 = (i % bands) * 8;
         narrow_2x2_rows(src, cin_, h, w, weights_.ptr<float>(), cout_, co, bias_[std::size_t(co)],
-                        y0, std::min(h, y0 + 8), dst, activation);
+                        y0, std::min(h, y0 + 8), dst, std::size_t(4) * h * w, activation);
       }
     });
     return;
@@ -235,6 +235,35 @@ void SubpixelDeconvolution::run_2x2(const float* src, int h, int w, float* dst,
         },
         stream);
   }
+}
+
+void SubpixelDeconvolution::run_2x2_band(const float* src, int h, int w, int y0, int y1,
+                                         float* band, const cv::dnn::ActivationLayer* activation) {
+  CV_Assert(kernel_ == 2 && cout_ > kNarrowOutputs && 0 <= y0 && y0 < y1 && y1 <= h);
+  const int rows = y1 - y0;
+  const std::size_t plane = std::size_t(h) * w, pixels = std::size_t(rows) * w;
+  band_input_.resize(std::size_t(cin_) * pixels);
+  products_.resize(std::size_t(4) * cout_ * pixels);
+  for (int c = 0; c < cin_; ++c)
+    std::copy_n(src + c * plane + std::size_t(y0) * w, pixels, band_input_.data() + c * pixels);
+  phases_2x2_->run(band_input_.data(), int(pixels), products_.data(), nullptr);
+  // The band's output as an image of its own: `rows` input rows, planes 4 rows w apart.
+  interleave(0, rows, rows, w, band, activation, [&](int phase, int c, int y) {
+    return products_.data() + (std::size_t(phase) * cout_ + c) * pixels + std::size_t(y) * w;
+  });
+}
+
+void SubpixelDeconvolution::run_narrow(const float* src, int h, int w, float* dst,
+                                       std::size_t dst_plane,
+                                       const cv::dnn::ActivationLayer* activation) {
+  CV_Assert(kernel_ == 2 && cout_ <= kNarrowOutputs && weights_.isContinuous());
+#if defined(__GNUC__) && defined(__x86_64__)
+  for (int co = 0; co < cout_; ++co)
+    narrow_2x2_rows(src, cin_, h, w, weights_.ptr<float>(), cout_, co, bias_[std::size_t(co)], 0, h,
+                    dst, dst_plane, activation);
+#else
+  (void)src, (void)h, (void)w, (void)dst, (void)dst_plane, (void)activation;
+#endif
 }
 
 void SubpixelDeconvolution::interleave(int y0, int y1, int h, int w, float* dst,

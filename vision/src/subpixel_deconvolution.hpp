@@ -41,6 +41,19 @@ class SubpixelDeconvolution : public ProductKernel {
   // Runs on cv::parallel_for_'s threads. Not reentrant (work buffers).
   void run(const float* src, int h, int w, float* dst, const cv::dnn::ActivationLayer* activation);
 
+  // 2x2 with more outputs than kNarrowOutputs (PP-OCR's 24 -> 24), and with at most that many
+  // (its 24 -> 1): a pair run a band of rows at a time, the first's output rows kept in cache
+  // for the second (dnn_layers.cpp fuses them).
+  bool wide_2x2() const { return kernel_ == 2 && cout_ > kNarrowOutputs; }
+  bool narrow_2x2() const { return kernel_ == 2 && cout_ <= kNarrowOutputs; }
+  // wide_2x2(): output rows [2 y0, 2 y1) of one image (input rows [y0, y1) of h x w) into `band`,
+  // output_channels planes of 2 (y1 - y0) x 2w one after the other, activated.
+  void run_2x2_band(const float* src, int h, int w, int y0, int y1, float* band,
+                    const cv::dnn::ActivationLayer* activation);
+  // narrow_2x2(): the whole output of input planes h x w, into dst planes `dst_plane` apart.
+  void run_narrow(const float* src, int h, int w, float* dst, std::size_t dst_plane,
+                  const cv::dnn::ActivationLayer* activation);
+
  private:
   struct Phase {
     int taps = 0;

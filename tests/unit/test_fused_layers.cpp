@@ -3,7 +3,8 @@
 // outputs to float rounding, with the activations after each layer, strides 1 and 2, kernels 3
 // and 5, planes whose bands end mid-image, two images; not where the output is small, has a
 // second reader, or the stand-ins say no; and again after OpenCV sets the network up anew for
-// another input size.
+// another input size. Likewise PP-OCR's DB head: a 2x2 transposed convolution and the narrow one
+// after it, band by band.
 #include <gtest/gtest.h>
 
 #include <opencv2/dnn/shape_utils.hpp>
@@ -169,6 +170,44 @@ TEST(BandedDepthwise, AfterTheStride2FirstLayer) {
   EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-6 * 56 * 10);
 }
 
+TEST(BandedDepthwise, AnOutputLaidOverTheInputStillReadsTheInput) {
+  if (!supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layers stay";
+  // OpenCV lays its blobs out before it fuses: the depthwise layer's output may take the memory
+  // of the 1x1 layer's input, dead in the unfused order once the 1x1 layer ran (here an inner
+  // layer's output of 16 planes, large enough to hold the 32 half-size ones), while the fused
+  // pair still reads it band by band.
+  cv::RNG rng(45);
+  const Case c{16, 32, 130, 128, 3, 2, false};
+  const Layers l = random_layers(rng, c);
+  cv::Mat inner({16, 16, 1, 1}, CV_32F), inner_bias(1, 16, CV_32F);
+  rng.fill(inner, cv::RNG::UNIFORM, -1, 1);
+  rng.fill(inner_bias, cv::RNG::UNIFORM, -1, 1);
+  const cv::Mat input = random_input(rng, 1, c.cin, c.h, c.w);
+  auto forward = [&](std::optional<DnnLayers> layers, std::string* type) {
+    std::optional<DnnLayersScope> scope;
+    if (layers) scope.emplace(*layers);
+    cv::dnn::Net net;
+    auto add = [&](const std::string& name, cv::dnn::LayerParams p) {
+      p.name = name;
+      net.addLayerToPrev(name, p.type, p);
+    };
+    add("inner", convolution(inner, inner_bias, 1, 1, 1));
+    add("pointwise", convolution(l.pointwise, l.pointwise_bias, 1, 1, 1));
+    add("relu", activation("ReLU"));
+    add("depthwise", convolution(l.depthwise, l.depthwise_bias, 3, 2, c.channels));
+    net.setInput(input);
+    cv::Mat out = net.forward().clone();
+    if (type) *type = net.getLayer("pointwise")->type;
+    return out;
+  };
+  std::string type;
+  const cv::Mat got = forward(DnnLayers::in_float(), &type);
+  EXPECT_EQ(type, "KeyfleetPointwiseDepthwise");
+  const cv::Mat expected = forward(DnnLayers::opencv(), nullptr);
+  ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
+  EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-3);
+}
+
 TEST(BandedDepthwise, OnlyWhereTheDepthwiseLayerAloneReadsALargeOutput) {
   if (!supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layers stay";
   cv::RNG rng(42);
@@ -215,6 +254,63 @@ TEST(BandedDepthwise, SetUpAgainForAnotherInputSize) {
     EXPECT_LT(cv::norm(got_next, expected_next, cv::NORM_INF), 1e-4)
         << next->size[3] << "x" << next->size[2];
   }
+}
+
+cv::dnn::LayerParams transposed_2x2(const cv::Mat& weights, const cv::Mat& bias) {
+  cv::dnn::LayerParams p;
+  p.type = "Deconvolution";
+  p.set("num_output", weights.size[1]);
+  const int kernel[] = {2, 2}, stride[] = {2, 2}, pads[] = {0, 0, 0, 0}, adjust[] = {0, 0};
+  p.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
+  p.set("stride", cv::dnn::DictValue::arrayInt(stride, 2));
+  p.set("pad", cv::dnn::DictValue::arrayInt(pads, 4));
+  p.set("adj", cv::dnn::DictValue::arrayInt(adjust, 2));
+  p.set("bias_term", true);
+  p.blobs = {weights, bias};
+  return p;
+}
+
+TEST(SubpixelDeconvolutionPair, MatchesOpenCvsDbHead) {
+  if (!supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layers stay";
+  // 24 -> 24 -> 1 (and -> 2), ReLU between and Sigmoid after, 2 MB or more of first output, an
+  // odd number of rows (the last band shorter); after an inner layer whose output the pair's
+  // output may be laid over (as in PP-OCR's detector at 640x480, where it is).
+  cv::RNG rng(46);
+  for (const int narrow : {1, 2})
+    for (const bool inner_first : {false, true}) {
+      cv::Mat inner({24, 24, 1, 1}, CV_32F), inner_bias(1, 24, CV_32F),
+          wide({24, 24, 2, 2}, CV_32F), wide_bias(1, 24, CV_32F), last({24, narrow, 2, 2}, CV_32F),
+          last_bias(1, narrow, CV_32F);
+      for (cv::Mat* m : {&inner, &inner_bias, &wide, &wide_bias, &last, &last_bias})
+        rng.fill(*m, cv::RNG::UNIFORM, -1, 1);
+      const cv::Mat input = random_input(rng, 2, 24, 117, 160);
+      auto forward = [&](std::optional<DnnLayers> layers, std::string* type) {
+        std::optional<DnnLayersScope> scope;
+        if (layers) scope.emplace(*layers);
+        cv::dnn::Net net;
+        auto add = [&](const std::string& name, cv::dnn::LayerParams p) {
+          p.name = name;
+          net.addLayerToPrev(name, p.type, p);
+        };
+        if (inner_first) add("inner", convolution(inner, inner_bias, 1, 1, 1));
+        add("wide", transposed_2x2(wide, wide_bias));
+        add("relu", activation("ReLU"));
+        add("narrow", transposed_2x2(last, last_bias));
+        add("sigmoid", activation("Sigmoid"));
+        net.setInput(input);
+        cv::Mat out = net.forward().clone();
+        if (type) *type = net.getLayer("wide")->type;
+        return out;
+      };
+      std::string type;
+      const cv::Mat got = forward(DnnLayers::in_float(), &type);
+      EXPECT_EQ(type, "KeyfleetSubpixelDeconvolutionPair");
+      const cv::Mat expected = forward(DnnLayers::opencv(), nullptr);
+      ASSERT_EQ(cv::dnn::shape(got), (cv::dnn::MatShape{2, narrow, 468, 640}));
+      ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
+      EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-5)
+          << "24 -> 24 -> " << narrow << (inner_first ? " after an inner layer" : "");
+    }
 }
 
 }  // namespace
