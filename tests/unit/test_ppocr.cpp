@@ -380,7 +380,10 @@ TEST(PpocrReaderWithModels, DetectorBuiltOnFirstUseFindsWhatOneBuiltAtOnceFinds)
 // checked on what it reads (above and below).
 TEST(PpocrReaderWithModels, StandInLayersGiveOpenCvsOutputs) {
   KEYFLEET_REQUIRE_PPOCR_MODELS();
+  // The detectors at both sizes: at 640x480 three of their layer pairs run fused a band of rows
+  // at a time, at 1280x736 nine (dnn_layers.cpp).
   for (const auto& [file, height, width] : {std::tuple{"ppocr_det_640x480.onnx", 480, 640},
+                                            std::tuple{"ppocr_det_1280x736.onnx", 736, 1280},
                                             std::tuple{"ppocr_rec_w320.onnx", 48, 320}}) {
     const int shape[] = {1, 3, height, width};
     cv::Mat input(4, shape, CV_32F);
