@@ -28,7 +28,10 @@
 // - inner product with constant weights (PP-OCR's recogniser's last MatMul) as the same matrix
 //   product, and softmax over the last axis with OpenCV's vectorised exp (dense_layers.hpp).
 // Each stand-in convolution takes the whole chain of activations OpenCV fuses into it (PP-OCR's
-// hard swish, scale and shift) and applies it to each output plane while it is in cache.
+// hard swish, scale and shift) and applies it to each output plane while it is in cache. Where a
+// depthwise convolution alone reads a float 1x1 or stride-2 first layer's output of 2 MB or more,
+// or a narrow 2x2 transposed convolution a wide one's (PP-OCR's DB head), the first stand-in takes
+// the second over and runs both a band of rows at a time (banded_depthwise.hpp).
 // The three product stand-ins need x86-64 with AVX2 and FMA (elsewhere OpenCV's layers stay); any
 // other convolution or transposed convolution stays OpenCV's. With `bfloat16_products`, where the
 // CPU also has AVX512-BF16, they multiply in bfloat16 with float sums (twice the multiply-adds per
