@@ -11,6 +11,7 @@
 
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "keyfleet/vision/dnn_layers.hpp"
@@ -46,6 +47,24 @@ cv::dnn::LayerParams activation(const char* type) {
     p.set("shift", -0.25f);
   }
   return p;
+}
+
+// A chain of named layers through OpenCV DNN with or without keyfleet's stand-ins; `type`: the
+// type of the layer named `typed` once the network ran.
+using Chain = std::vector<std::pair<std::string, cv::dnn::LayerParams>>;
+cv::Mat run_chain(const Chain& chain, const cv::Mat& input, std::optional<DnnLayers> layers,
+                  const std::string& typed = "", std::string* type = nullptr) {
+  std::optional<DnnLayersScope> scope;
+  if (layers) scope.emplace(*layers);
+  cv::dnn::Net net;
+  for (auto [name, params] : chain) {
+    params.name = name;
+    net.addLayerToPrev(name, params.type, params);
+  }
+  net.setInput(input);
+  cv::Mat out = net.forward().clone();
+  if (type) *type = net.getLayer(typed)->type;
+  return out;
 }
 
 struct Layers {
@@ -144,22 +163,12 @@ TEST(BandedDepthwise, AfterTheStride2FirstLayer) {
   for (cv::Mat* m : {&first, &first_bias, &depthwise, &depthwise_bias})
     rng.fill(*m, cv::RNG::UNIFORM, -1, 1);
   const cv::Mat input = random_input(rng, 2, 3, 391, 349);
+  const Chain chain = {{"first", convolution(first, first_bias, 3, 2, 1)},
+                       {"affine", activation("Power")},
+                       {"depthwise", convolution(depthwise, depthwise_bias, 3, 1, 16)},
+                       {"relu", activation("ReLU")}};
   auto forward = [&](std::optional<DnnLayers> layers, std::string* type) {
-    std::optional<DnnLayersScope> scope;
-    if (layers) scope.emplace(*layers);
-    cv::dnn::Net net;
-    auto add = [&](const std::string& name, cv::dnn::LayerParams p) {
-      p.name = name;
-      net.addLayerToPrev(name, p.type, p);
-    };
-    add("first", convolution(first, first_bias, 3, 2, 1));
-    add("affine", activation("Power"));
-    add("depthwise", convolution(depthwise, depthwise_bias, 3, 1, 16));
-    add("relu", activation("ReLU"));
-    net.setInput(input);
-    cv::Mat out = net.forward().clone();
-    if (type) *type = net.getLayer("first")->type;
-    return out;
+    return run_chain(chain, input, layers, "first", type);
   };
   std::string type;
   const cv::Mat got = forward(DnnLayers::in_float(), &type);
@@ -183,22 +192,12 @@ TEST(BandedDepthwise, AnOutputLaidOverTheInputStillReadsTheInput) {
   rng.fill(inner, cv::RNG::UNIFORM, -1, 1);
   rng.fill(inner_bias, cv::RNG::UNIFORM, -1, 1);
   const cv::Mat input = random_input(rng, 1, c.cin, c.h, c.w);
+  const Chain chain = {{"inner", convolution(inner, inner_bias, 1, 1, 1)},
+                       {"pointwise", convolution(l.pointwise, l.pointwise_bias, 1, 1, 1)},
+                       {"relu", activation("ReLU")},
+                       {"depthwise", convolution(l.depthwise, l.depthwise_bias, 3, 2, c.channels)}};
   auto forward = [&](std::optional<DnnLayers> layers, std::string* type) {
-    std::optional<DnnLayersScope> scope;
-    if (layers) scope.emplace(*layers);
-    cv::dnn::Net net;
-    auto add = [&](const std::string& name, cv::dnn::LayerParams p) {
-      p.name = name;
-      net.addLayerToPrev(name, p.type, p);
-    };
-    add("inner", convolution(inner, inner_bias, 1, 1, 1));
-    add("pointwise", convolution(l.pointwise, l.pointwise_bias, 1, 1, 1));
-    add("relu", activation("ReLU"));
-    add("depthwise", convolution(l.depthwise, l.depthwise_bias, 3, 2, c.channels));
-    net.setInput(input);
-    cv::Mat out = net.forward().clone();
-    if (type) *type = net.getLayer("pointwise")->type;
-    return out;
+    return run_chain(chain, input, layers, "pointwise", type);
   };
   std::string type;
   const cv::Mat got = forward(DnnLayers::in_float(), &type);
@@ -284,23 +283,14 @@ TEST(SubpixelDeconvolutionPair, MatchesOpenCvsDbHead) {
       for (cv::Mat* m : {&inner, &inner_bias, &wide, &wide_bias, &last, &last_bias})
         rng.fill(*m, cv::RNG::UNIFORM, -1, 1);
       const cv::Mat input = random_input(rng, 2, 24, 117, 160);
+      Chain chain;
+      if (inner_first) chain.push_back({"inner", convolution(inner, inner_bias, 1, 1, 1)});
+      chain.push_back({"wide", transposed_2x2(wide, wide_bias)});
+      chain.push_back({"relu", activation("ReLU")});
+      chain.push_back({"narrow", transposed_2x2(last, last_bias)});
+      chain.push_back({"sigmoid", activation("Sigmoid")});
       auto forward = [&](std::optional<DnnLayers> layers, std::string* type) {
-        std::optional<DnnLayersScope> scope;
-        if (layers) scope.emplace(*layers);
-        cv::dnn::Net net;
-        auto add = [&](const std::string& name, cv::dnn::LayerParams p) {
-          p.name = name;
-          net.addLayerToPrev(name, p.type, p);
-        };
-        if (inner_first) add("inner", convolution(inner, inner_bias, 1, 1, 1));
-        add("wide", transposed_2x2(wide, wide_bias));
-        add("relu", activation("ReLU"));
-        add("narrow", transposed_2x2(last, last_bias));
-        add("sigmoid", activation("Sigmoid"));
-        net.setInput(input);
-        cv::Mat out = net.forward().clone();
-        if (type) *type = net.getLayer("wide")->type;
-        return out;
+        return run_chain(chain, input, layers, "wide", type);
       };
       std::string type;
       const cv::Mat got = forward(DnnLayers::in_float(), &type);

@@ -256,6 +256,19 @@ class DepthwiseFusion {
     return bool(banded_);
   }
 
+  // OpenCV's tryFuse of `top` on a layer whose own activations are `own`: an activation joins
+  // that chain (or, once fused, the depthwise layer's); a depthwise layer that take() accepts is
+  // fused, and the layer's `type` becomes `fused_type`.
+  bool try_fuse(cv::Ptr<cv::dnn::Layer>& top, int channels, bool can, ActivationChain& own,
+                std::string& type, const char* fused_type) {
+    if (top.empty()) return false;
+    if (const auto activation = top.dynamicCast<cv::dnn::ActivationLayer>())
+      return add_activation(activation, own);
+    if (!take(*top, channels, can)) return false;
+    type = fused_type;
+    return true;
+  }
+
   // An activation for the layer's own chain or, once fused, the depthwise layer's; an empty one
   // (OpenCV's unsetAttached, before it fuses the network again) undoes every fusion.
   bool add_activation(const cv::Ptr<cv::dnn::ActivationLayer>& layer, ActivationChain& own) {
@@ -266,11 +279,16 @@ class DepthwiseFusion {
     return banded_ ? activations_.add(layer) : own.add(layer);
   }
 
-  // The layer's output plane (h x w, `channels` of them), from finalize(): OpenCV finalizes
-  // every layer before it fuses any.
-  void note_output(int channels, int height, int width) {
-    output_bytes_ =
-        std::size_t(channels) * std::size_t(height) * std::size_t(width) * sizeof(float);
+  // From finalize() (OpenCV finalizes every layer before it fuses any): the layer's output of
+  // `channels` planes, each `side` of its input's height and width.
+  template <class Side>
+  void note_output(cv::InputArrayOfArrays inputs_arr, int channels, Side side) {
+    std::vector<cv::Mat> inputs;
+    inputs_arr.getMatVector(inputs);
+    output_bytes_ = inputs.empty() || inputs[0].dims != 4
+                        ? 0
+                        : std::size_t(channels) * std::size_t(side(inputs[0].size[2])) *
+                              std::size_t(side(inputs[0].size[3])) * sizeof(float);
   }
 
   BandedDepthwise* banded() const { return banded_.get(); }
@@ -311,12 +329,8 @@ class PointwiseLayer final : public SameSizeLayer<PointwiseConvolution> {
   // before, while this accepts: the activations (as setActivation would take them), then a
   // depthwise convolution, then the activations after that.
   bool tryFuse(cv::Ptr<cv::dnn::Layer>& top) override {
-    if (top.empty()) return false;
-    if (const auto activation = top.dynamicCast<cv::dnn::ActivationLayer>())
-      return setActivation(activation);
-    if (!fusion_.take(*top, kernel_.output_channels(), kernel_.runs_columns())) return false;
-    type = "KeyfleetPointwiseDepthwise";
-    return true;
+    return fusion_.try_fuse(top, kernel_.output_channels(), kernel_.runs_columns(), activations_,
+                            type, "KeyfleetPointwiseDepthwise");
   }
 
   bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
@@ -324,10 +338,7 @@ class PointwiseLayer final : public SameSizeLayer<PointwiseConvolution> {
   }
 
   void finalize(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays) override {
-    std::vector<cv::Mat> inputs;
-    inputs_arr.getMatVector(inputs);
-    if (!inputs.empty() && inputs[0].dims == 4)
-      fusion_.note_output(kernel_.output_channels(), inputs[0].size[2], inputs[0].size[3]);
+    fusion_.note_output(inputs_arr, kernel_.output_channels(), [](int side) { return side; });
   }
 
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
@@ -439,12 +450,8 @@ class StridedConvolutionLayer final : public cv::dnn::Layer {
   // As the 1x1 stand-in's: the activations, then a depthwise convolution that alone reads the
   // (large) activated output, then the activations after that (PP-OCR's first two layers).
   bool tryFuse(cv::Ptr<cv::dnn::Layer>& top) override {
-    if (top.empty()) return false;
-    if (const auto activation = top.dynamicCast<cv::dnn::ActivationLayer>())
-      return setActivation(activation);
-    if (!fusion_.take(*top, kernel_.output_channels(), true)) return false;
-    type = "KeyfleetStridedDepthwise";
-    return true;
+    return fusion_.try_fuse(top, kernel_.output_channels(), true, activations_, type,
+                            "KeyfleetStridedDepthwise");
   }
 
   bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
@@ -452,11 +459,8 @@ class StridedConvolutionLayer final : public cv::dnn::Layer {
   }
 
   void finalize(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays) override {
-    std::vector<cv::Mat> inputs;
-    inputs_arr.getMatVector(inputs);
-    if (!inputs.empty() && inputs[0].dims == 4)
-      fusion_.note_output(kernel_.output_channels(), kernel_.output_side(inputs[0].size[2]),
-                          kernel_.output_side(inputs[0].size[3]));
+    fusion_.note_output(inputs_arr, kernel_.output_channels(),
+                        [this](int side) { return kernel_.output_side(side); });
   }
 
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
