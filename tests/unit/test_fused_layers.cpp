@@ -76,7 +76,8 @@ struct Layers {
 // the layer that ran the 1x1 convolution.
 cv::Mat run(const Layers& l, const Case& c, const cv::Mat& input, std::optional<DnnLayers> layers,
             bool second_reader = false, std::string* type = nullptr,
-            const cv::Mat* second_input = nullptr, cv::Mat* second_output = nullptr) {
+            const cv::Mat* second_input = nullptr, cv::Mat* second_output = nullptr,
+            std::string* second_type = nullptr) {
   std::optional<DnnLayersScope> scope;
   if (layers) scope.emplace(*layers);
   cv::dnn::Net net;
@@ -103,6 +104,7 @@ cv::Mat run(const Layers& l, const Case& c, const cv::Mat& input, std::optional<
   if (second_input) {
     net.setInput(*second_input);
     *second_output = net.forward().clone();
+    if (second_type) *second_type = net.getLayer("pointwise")->type;
   }
   return out;
 }
@@ -235,8 +237,8 @@ TEST(BandedDepthwise, OnlyWhereTheDepthwiseLayerAloneReadsALargeOutput) {
 TEST(BandedDepthwise, SetUpAgainForAnotherInputSize) {
   if (!supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layers stay";
   // OpenCV undoes its fusions (unsetAttached) and fuses again when the input's shape changes:
-  // the 1x1 stand-in must neither keep a depthwise layer that now runs on its own nor apply its
-  // activations twice.
+  // the 1x1 stand-in must neither keep a depthwise layer that now runs on its own (nor say it
+  // does) nor apply its activations twice.
   cv::RNG rng(43);
   const Case c{16, 32, 131, 127, 3, 2, true};
   const Layers l = random_layers(rng, c);
@@ -245,7 +247,11 @@ TEST(BandedDepthwise, SetUpAgainForAnotherInputSize) {
   const cv::Mat third = random_input(rng, 1, c.cin, 150, 140);
   for (const cv::Mat* next : {&second, &third}) {
     cv::Mat got_next, expected_next;
-    const cv::Mat got = run(l, c, first, DnnLayers::in_float(), false, nullptr, next, &got_next);
+    std::string type, type_next;
+    const cv::Mat got =
+        run(l, c, first, DnnLayers::in_float(), false, &type, next, &got_next, &type_next);
+    EXPECT_EQ(type, "KeyfleetPointwiseDepthwise");
+    EXPECT_EQ(type_next, next == &second ? "KeyfleetPointwise" : "KeyfleetPointwiseDepthwise");
     const cv::Mat expected =
         run(l, c, first, DnnLayers::opencv(), false, nullptr, next, &expected_next);
     EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-4);

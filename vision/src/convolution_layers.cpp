@@ -263,16 +263,20 @@ class DepthwiseFusion {
                 std::string& type, const char* fused_type) {
     if (top.empty()) return false;
     if (const auto activation = top.dynamicCast<cv::dnn::ActivationLayer>())
-      return add_activation(activation, own);
+      return add_activation(activation, own, type);
     if (!take(*top, channels, can)) return false;
+    unfused_type_ = type;
     type = fused_type;
     return true;
   }
 
   // An activation for the layer's own chain or, once fused, the depthwise layer's; an empty one
-  // (OpenCV's unsetAttached, before it fuses the network again) undoes every fusion.
-  bool add_activation(const cv::Ptr<cv::dnn::ActivationLayer>& layer, ActivationChain& own) {
+  // (OpenCV's unsetAttached, before it fuses the network again) undoes every fusion, the layer's
+  // `type` included.
+  bool add_activation(const cv::Ptr<cv::dnn::ActivationLayer>& layer, ActivationChain& own,
+                      std::string& type) {
     if (layer.empty()) {
+      if (banded_) type = unfused_type_;
       banded_.reset();
       activations_.add(layer);
     }
@@ -298,6 +302,7 @@ class DepthwiseFusion {
  private:
   bool may_;
   std::size_t output_bytes_ = 0;
+  std::string unfused_type_;
   std::unique_ptr<BandedDepthwise> banded_;
   ActivationChain activations_;
   std::vector<float> scratch_;
@@ -334,7 +339,7 @@ class PointwiseLayer final : public SameSizeLayer<PointwiseConvolution> {
   }
 
   bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
-    return fusion_.add_activation(layer, activations_);
+    return fusion_.add_activation(layer, activations_, type);
   }
 
   void finalize(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays) override {
@@ -455,7 +460,7 @@ class StridedConvolutionLayer final : public cv::dnn::Layer {
   }
 
   bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
-    return fusion_.add_activation(layer, activations_);
+    return fusion_.add_activation(layer, activations_, type);
   }
 
   void finalize(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays) override {
@@ -558,6 +563,7 @@ class SubpixelDeconvolutionLayer final : public ProductLayer<SubpixelDeconvoluti
         output_bytes_ < BandedDepthwise::kSmallestOutputBytes)
       return false;
     second_ = top.staticCast<SubpixelDeconvolutionLayer>();
+    unfused_type_ = type;
     type = "KeyfleetSubpixelDeconvolutionPair";
     return true;
   }
@@ -565,6 +571,7 @@ class SubpixelDeconvolutionLayer final : public ProductLayer<SubpixelDeconvoluti
   // An empty layer (OpenCV's unsetAttached) undoes the pair, as DepthwiseFusion's.
   bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
     if (layer.empty()) {
+      if (second_) type = unfused_type_;
       second_.release();
       second_activations_.add(layer);
     }
@@ -615,6 +622,7 @@ class SubpixelDeconvolutionLayer final : public ProductLayer<SubpixelDeconvoluti
   static constexpr std::size_t kPairBandFloats = 64 * 1024;
   bool may_pair_ = scope_layers().banded_depthwise;
   std::size_t output_bytes_ = 0;
+  std::string unfused_type_;
   cv::Ptr<SubpixelDeconvolutionLayer> second_;
   ActivationChain second_activations_;
   std::vector<float> band_, scratch_;
