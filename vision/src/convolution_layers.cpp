@@ -295,9 +295,25 @@ class DepthwiseFusion {
                               std::size_t(side(inputs[0].size[3])) * sizeof(float);
   }
 
-  BandedDepthwise* banded() const { return banded_.get(); }
-  std::vector<float>& scratch() { return scratch_; }  // FusedOutput's
-  const cv::dnn::ActivationLayer* activation() const { return activations_.get(); }
+  bool fused() const { return bool(banded_); }
+
+  // The fused pair on each image of `io`: the first layer's output is `channels` planes of h x w,
+  // whose rows [first, last) produce(image's input, first, last, band, band_plane) writes.
+  template <class Produce>
+  void run(LayerIo& io, int channels, int h, int w, const Produce& produce) {
+    // OpenCV hands the layer the depthwise layer's blobs.
+    CV_Assert(io.out.dims == 4 && io.out.size[1] == channels &&
+              io.out.size[2] == banded_->output_side(h) &&
+              io.out.size[3] == banded_->output_side(w));
+    const FusedOutput out(io.in, io.out, scratch_);
+    for (int n = 0; n < io.in.size[0]; ++n) {
+      const float* src = io.in.ptr<float>(n);
+      banded_->run([&](int first, int last, float* band,
+                       std::size_t band_plane) { produce(src, first, last, band, band_plane); },
+                   h, w, out.image(n), activations_.get());
+    }
+    out.apply();
+  }
 
  private:
   bool may_;
@@ -307,14 +323,6 @@ class DepthwiseFusion {
   ActivationChain activations_;
   std::vector<float> scratch_;
 };
-
-// The fused layer's output (OpenCV hands the layer the depthwise layer's blobs) checked against
-// the depthwise layer's geometry for an input plane of h x w and `channels`.
-void check_fused_output(const cv::Mat& out, const BandedDepthwise& banded, int channels, int h,
-                        int w) {
-  CV_Assert(out.dims == 4 && out.size[1] == channels && out.size[2] == banded.output_side(h) &&
-            out.size[3] == banded.output_side(w));
-}
 
 // 1x1 convolution, stride 1, no padding, one group, by avx2_product.hpp; an activation after it
 // is applied as each stripe of columns is done. Where a depthwise convolution is the only reader
@@ -348,25 +356,17 @@ class PointwiseLayer final : public SameSizeLayer<PointwiseConvolution> {
 
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
                cv::OutputArrayOfArrays internals_arr) override {
-    BandedDepthwise* banded = fusion_.banded();
-    if (!banded) {
+    if (!fusion_.fused()) {
       SameSizeLayer::forward(inputs_arr, outputs_arr, internals_arr);
       return;
     }
     LayerIo io = float_layer_io(inputs_arr, outputs_arr, false);
     const int h = io.in.size[2], w = io.in.size[3];
-    check_fused_output(io.out, *banded, kernel_.output_channels(), h, w);
-    const FusedOutput out(io.in, io.out, fusion_.scratch());
-    for (int n = 0; n < io.in.size[0]; ++n) {
-      const float* src = io.in.ptr<float>(n);
-      banded->run(
-          [&](int first, int last, float* band, std::size_t band_plane) {
-            kernel_.run_columns(src + std::size_t(first) * w, std::size_t(h) * w,
-                                (last - first) * w, band, band_plane, activations_.get());
-          },
-          h, w, out.image(n), fusion_.activation());
-    }
-    out.apply();
+    fusion_.run(io, kernel_.output_channels(), h, w,
+                [&](const float* src, int first, int last, float* band, std::size_t band_plane) {
+                  kernel_.run_columns(src + std::size_t(first) * w, std::size_t(h) * w,
+                                      (last - first) * w, band, band_plane, activations_.get());
+                });
   }
 
   void run(const float* in, int height, int width, float* out) override {
@@ -472,24 +472,15 @@ class StridedConvolutionLayer final : public cv::dnn::Layer {
                cv::OutputArrayOfArrays) override {
     LayerIo io = float_layer_io(inputs_arr, outputs_arr, false);
     const int h = io.in.size[2], w = io.in.size[3];
-    BandedDepthwise* banded = fusion_.banded();
-    if (!banded) {
+    if (!fusion_.fused()) {
       for (int n = 0; n < io.in.size[0]; ++n)
         kernel_.run(io.in.ptr<float>(n), h, w, io.out.ptr<float>(n), activations_.get());
       return;
     }
-    check_fused_output(io.out, *banded, kernel_.output_channels(), kernel_.output_side(h),
-                       kernel_.output_side(w));
-    const FusedOutput out(io.in, io.out, fusion_.scratch());
-    for (int n = 0; n < io.in.size[0]; ++n) {
-      const float* src = io.in.ptr<float>(n);
-      banded->run(
-          [&](int first, int last, float* band, std::size_t band_plane) {
-            kernel_.run_rows(src, h, w, first, last, band, band_plane, activations_.get());
-          },
-          kernel_.output_side(h), kernel_.output_side(w), out.image(n), fusion_.activation());
-    }
-    out.apply();
+    fusion_.run(io, kernel_.output_channels(), kernel_.output_side(h), kernel_.output_side(w),
+                [&](const float* src, int first, int last, float* band, std::size_t band_plane) {
+                  kernel_.run_rows(src, h, w, first, last, band, band_plane, activations_.get());
+                });
   }
 
  private:
