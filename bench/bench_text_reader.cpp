@@ -174,9 +174,7 @@ void BM_PpocrDetectorNet(benchmark::State& state) {
   cv::dnn::Net net;
   {
     const keyfleet::vision::DnnLayersScope stand_ins(keyfleet::vision::DnnLayers::in_float());
-    net = cv::dnn::readNetFromONNX(c->model);
-    net.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);
-    net.setPreferableTarget(cv::dnn::DNN_TARGET_CPU);
+    net = keyfleet::vision::load_onnx_network(c->model, "ppocr detector");
     net.setInput(blob);
     net.forward();  // the first pass creates the layers and allocates
   }

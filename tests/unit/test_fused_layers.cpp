@@ -2,9 +2,11 @@
 // reads its large output and runs both a band of rows at a time (banded_depthwise.hpp): OpenCV's
 // outputs to float rounding, with the activations after each layer, strides 1 and 2, kernels 3
 // and 5, planes whose bands end mid-image, two images; not where the output is small, has a
-// second reader, or the stand-ins say no; and again after OpenCV sets the network up anew for
-// another input size. Likewise PP-OCR's DB head: a 2x2 transposed convolution and the narrow one
-// after it, band by band.
+// second reader, or the stand-ins say no; not where a layer of another branch runs between the
+// two (OpenCV lays that branch's blobs over the pair's output: fused, the output came out wrong)
+// nor in a network the scope was not told of; and again after OpenCV sets the network up anew for
+// another input size, inside the scope or after it. Likewise PP-OCR's DB head: a 2x2 transposed
+// convolution and the narrow one after it, band by band.
 #include <gtest/gtest.h>
 
 #include <opencv2/dnn/shape_utils.hpp>
@@ -61,6 +63,7 @@ cv::Mat run_chain(const Chain& chain, const cv::Mat& input, std::optional<DnnLay
     params.name = name;
     net.addLayerToPrev(name, params.type, params);
   }
+  if (scope) scope->watch(net);
   net.setInput(input);
   cv::Mat out = net.forward().clone();
   if (type) *type = net.getLayer(typed)->type;
@@ -98,6 +101,7 @@ cv::Mat run(const Layers& l, const Case& c, const cv::Mat& input, std::optional<
     net.connect(c.depthwise_activation ? net.getLayerId("depthwise_relu") : depthwise, 0, id, 0);
     net.connect(affine, 0, id, 1);
   }
+  if (scope) scope->watch(net);
   net.setInput(input);
   cv::Mat out = net.forward().clone();
   if (type) *type = net.getLayer("pointwise")->type;
@@ -261,6 +265,109 @@ TEST(BandedDepthwise, SetUpAgainForAnotherInputSize) {
   }
 }
 
+TEST(BandedDepthwise, NotWhereALayerOfAnotherBranchRunsBetween) {
+  if (!supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layers stay";
+  // OpenCV runs layers in the order of their ids. Here a branch from the input runs between the
+  // 1x1 layer and its depthwise reader: `branch` (ids between the two) writes a blob of the
+  // depthwise output's size that `branch_next` reads and frees, so OpenCV lays the depthwise
+  // output over it. Fused, the pair would write that output first and the branch overwrite it:
+  // the stand-in must leave the depthwise layer to run in its own place.
+  cv::RNG rng(46);
+  const Case c{16, 32, 130, 128, 3, 1, false};
+  const Layers l = random_layers(rng, c);
+  cv::Mat branch({c.channels, c.cin, 1, 1}, CV_32F), branch_bias(1, c.channels, CV_32F),
+      next({c.channels, c.channels, 1, 1}, CV_32F), next_bias(1, c.channels, CV_32F);
+  for (cv::Mat* m : {&branch, &branch_bias, &next, &next_bias})
+    rng.fill(*m, cv::RNG::UNIFORM, -1, 1);
+  const cv::Mat input = random_input(rng, 1, c.cin, c.h, c.w);
+  auto forward = [&](std::optional<DnnLayers> layers, std::string* type) {
+    std::optional<DnnLayersScope> scope;
+    if (layers) scope.emplace(*layers);
+    cv::dnn::Net net;
+    auto add = [&](const std::string& name, cv::dnn::LayerParams p, int from) {
+      p.name = name;
+      const int id = net.addLayer(name, p.type, p);
+      net.connect(from, 0, id, 0);
+      return id;
+    };
+    const int pointwise = add("pointwise", convolution(l.pointwise, l.pointwise_bias, 1, 1, 1), 0);
+    const int relu = add("relu", activation("ReLU"), pointwise);
+    const int side = add("branch", convolution(branch, branch_bias, 1, 1, 1), 0);
+    const int side_next = add("branch_next", convolution(next, next_bias, 1, 1, 1), side);
+    const int depthwise =
+        add("depthwise", convolution(l.depthwise, l.depthwise_bias, 3, 1, c.channels), relu);
+    cv::dnn::LayerParams sum;
+    sum.name = sum.type = "Eltwise";
+    const int total = net.addLayer(sum.name, sum.type, sum);
+    net.connect(depthwise, 0, total, 0);
+    net.connect(side_next, 0, total, 1);
+    if (scope) scope->watch(net);
+    net.setInput(input);
+    cv::Mat out = net.forward().clone();
+    if (type) *type = net.getLayer("pointwise")->type;
+    return out;
+  };
+  std::string type;
+  const cv::Mat got = forward(DnnLayers::in_float(), &type);
+  EXPECT_EQ(type, "KeyfleetPointwise");
+  const cv::Mat expected = forward(DnnLayers::opencv(), nullptr);
+  ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
+  EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-3);
+}
+
+TEST(BandedDepthwise, NotForANetworkTheScopeWasNotToldOf) {
+  if (!supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layers stay";
+  // Without the network the stand-in cannot read OpenCV's order: it takes nothing over.
+  cv::RNG rng(47);
+  const Case c{16, 32, 130, 128, 3, 1, false};
+  const Layers l = random_layers(rng, c);
+  const cv::Mat input = random_input(rng, 1, c.cin, c.h, c.w);
+  const Chain chain = {{"pointwise", convolution(l.pointwise, l.pointwise_bias, 1, 1, 1)},
+                       {"depthwise", convolution(l.depthwise, l.depthwise_bias, 3, 1, c.channels)}};
+  DnnLayersScope scope(DnnLayers::in_float());
+  cv::dnn::Net net;
+  for (auto [name, params] : chain) {
+    params.name = name;
+    net.addLayerToPrev(name, params.type, params);
+  }
+  net.setInput(input);
+  const cv::Mat got = net.forward().clone();
+  EXPECT_EQ(net.getLayer("pointwise")->type, "KeyfleetPointwise");
+  EXPECT_EQ(cv::dnn::shape(got), (cv::dnn::MatShape{1, c.channels, c.h, c.w}));
+}
+
+TEST(BandedDepthwise, KeepsItsDecisionWhenSetUpAgainOutsideTheScope) {
+  if (!supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layers stay";
+  // OpenCV fuses again when the input's shape changes, which may happen long after the scope
+  // that watched the network ended: the pair found to run one after the other fuses again.
+  cv::RNG rng(48);
+  const Case c{16, 32, 130, 128, 3, 1, false};
+  const Layers l = random_layers(rng, c);
+  const cv::Mat first = random_input(rng, 1, c.cin, c.h, c.w);
+  const cv::Mat second = random_input(rng, 1, c.cin, 150, 140);
+  const Chain chain = {{"pointwise", convolution(l.pointwise, l.pointwise_bias, 1, 1, 1)},
+                       {"relu", activation("ReLU")},
+                       {"depthwise", convolution(l.depthwise, l.depthwise_bias, 3, 1, c.channels)}};
+  cv::dnn::Net net;
+  {
+    DnnLayersScope scope(DnnLayers::in_float());
+    for (auto [name, params] : chain) {
+      params.name = name;
+      net.addLayerToPrev(name, params.type, params);
+    }
+    scope.watch(net);
+    net.setInput(first);
+    net.forward();
+    EXPECT_EQ(net.getLayer("pointwise")->type, "KeyfleetPointwiseDepthwise");
+  }
+  net.setInput(second);
+  const cv::Mat got = net.forward().clone();
+  EXPECT_EQ(net.getLayer("pointwise")->type, "KeyfleetPointwiseDepthwise");
+  const cv::Mat expected = run_chain(chain, second, DnnLayers::opencv());
+  ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
+  EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-4);
+}
+
 cv::dnn::LayerParams transposed_2x2(const cv::Mat& weights, const cv::Mat& bias) {
   cv::dnn::LayerParams p;
   p.type = "Deconvolution";
@@ -307,6 +414,57 @@ TEST(SubpixelDeconvolutionPair, MatchesOpenCvsDbHead) {
       EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-5)
           << "24 -> 24 -> " << narrow << (inner_first ? " after an inner layer" : "");
     }
+}
+
+TEST(SubpixelDeconvolutionPair, NotWhereALayerOfAnotherBranchRunsBetween) {
+  if (!supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layers stay";
+  // As BandedDepthwise's: a branch from the input runs between the two transposed layers and
+  // frees a blob of the pair's output size, which OpenCV lays the narrow layer's output over.
+  cv::RNG rng(49);
+  cv::Mat wide({24, 24, 2, 2}, CV_32F), wide_bias(1, 24, CV_32F), last({24, 1, 2, 2}, CV_32F),
+      last_bias(1, 1, CV_32F), branch({24, 1, 4, 4}, CV_32F), branch_bias(1, 1, CV_32F),
+      next({1, 1, 1, 1}, CV_32F), next_bias(1, 1, CV_32F);
+  for (cv::Mat* m :
+       {&wide, &wide_bias, &last, &last_bias, &branch, &branch_bias, &next, &next_bias})
+    rng.fill(*m, cv::RNG::UNIFORM, -1, 1);
+  cv::dnn::LayerParams by4 = transposed_2x2(branch, branch_bias);
+  const int kernel[] = {4, 4}, stride[] = {4, 4};
+  by4.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
+  by4.set("stride", cv::dnn::DictValue::arrayInt(stride, 2));
+  const cv::Mat input = random_input(rng, 1, 24, 117, 160);
+  auto forward = [&](std::optional<DnnLayers> layers, std::string* type) {
+    std::optional<DnnLayersScope> scope;
+    if (layers) scope.emplace(*layers);
+    cv::dnn::Net net;
+    auto add = [&](const std::string& name, cv::dnn::LayerParams p, int from) {
+      p.name = name;
+      const int id = net.addLayer(name, p.type, p);
+      net.connect(from, 0, id, 0);
+      return id;
+    };
+    const int first = add("wide", transposed_2x2(wide, wide_bias), 0);
+    const int relu = add("relu", activation("ReLU"), first);
+    const int side = add("branch", by4, 0);
+    const int side_next = add("branch_next", convolution(next, next_bias, 1, 1, 1), side);
+    const int narrow = add("narrow", transposed_2x2(last, last_bias), relu);
+    cv::dnn::LayerParams sum;
+    sum.name = sum.type = "Eltwise";
+    const int total = net.addLayer(sum.name, sum.type, sum);
+    net.connect(narrow, 0, total, 0);
+    net.connect(side_next, 0, total, 1);
+    if (scope) scope->watch(net);
+    net.setInput(input);
+    cv::Mat out = net.forward().clone();
+    if (type) *type = net.getLayer("wide")->type;
+    return out;
+  };
+  std::string type;
+  const cv::Mat got = forward(DnnLayers::in_float(), &type);
+  EXPECT_NE(type, "KeyfleetSubpixelDeconvolutionPair");
+  const cv::Mat expected = forward(DnnLayers::opencv(), nullptr);
+  ASSERT_EQ(cv::dnn::shape(got), (cv::dnn::MatShape{1, 1, 468, 640}));
+  ASSERT_EQ(cv::dnn::shape(got), cv::dnn::shape(expected));
+  EXPECT_LT(cv::norm(got, expected, cv::NORM_INF), 1e-4);
 }
 
 }  // namespace

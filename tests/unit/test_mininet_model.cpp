@@ -98,7 +98,7 @@ TEST(ShippedMiniNet, FindsTextPixelsOfUnseenRealPhotosAboveStatedFloors) {
 cv::Mat shipped_logits(const cv::Mat& blob, DnnLayers layers) {
   std::optional<DnnLayersScope> scope;
   if (layers.any()) scope.emplace(layers);
-  cv::dnn::Net net = cv::dnn::readNetFromONNX(locate_model(kShipped, "segmenter model"));
+  cv::dnn::Net net = load_onnx_network(locate_model(kShipped, "segmenter model"), "segmenter");
   net.setInput(blob);
   return net.forward().clone();
 }

@@ -14,6 +14,7 @@
 #include "bf16_product.hpp"
 #include "convolution_3x3.hpp"
 #include "depthwise_avx2.hpp"
+#include "fusion_order.hpp"
 #include "layer_io.hpp"
 #include "pointwise_convolution.hpp"
 #include "pointwise_int8.hpp"
@@ -242,18 +243,23 @@ std::unique_ptr<BandedDepthwise> banded_opencv_depthwise(const cv::dnn::Layer& l
 // layer, the fused depthwise layer and the activations after it.
 class DepthwiseFusion {
  public:
-  DepthwiseFusion() : may_(scope_layers().banded_depthwise) {}
+  explicit DepthwiseFusion(const cv::dnn::Layer& self)
+      : self_(self), may_(scope_layers().banded_depthwise) {}
 
   // For OpenCV's tryFuse of `top` (not an activation) after a layer of `channels` outputs whose
-  // kernel can write rows where asked (`can`); then the layer's type becomes `fused_type`.
+  // kernel can write rows where asked (`can`), where `top` runs right after it (fusion_order.hpp).
   bool take(const cv::dnn::Layer& top, int channels, bool can) {
     if (banded_ || !may_ || !can || output_bytes_ < BandedDepthwise::kSmallestOutputBytes)
       return false;
+    std::unique_ptr<BandedDepthwise> banded;
     if (const auto* depthwise = dynamic_cast<const DepthwiseLayer*>(&top))
-      banded_ = depthwise->banded(channels);
+      banded = depthwise->banded(channels);
     else
-      banded_ = banded_opencv_depthwise(top, channels);
-    return bool(banded_);
+      banded = banded_opencv_depthwise(top, channels);
+    if (!banded || !order_.runs_next(self_, top)) return false;
+    banded_ = std::move(banded);
+    order_.joined(top.name);
+    return true;
   }
 
   // OpenCV's tryFuse of `top` on a layer whose own activations are `own`: an activation joins
@@ -270,17 +276,22 @@ class DepthwiseFusion {
     return true;
   }
 
-  // An activation for the layer's own chain or, once fused, the depthwise layer's; an empty one
-  // (OpenCV's unsetAttached, before it fuses the network again) undoes every fusion, the layer's
-  // `type` included.
+  // An activation for the layer's own chain or, once fused, the depthwise layer's (where it runs
+  // right after the pair); an empty one (OpenCV's unsetAttached, before it fuses the network
+  // again) undoes every fusion, the layer's `type` included.
   bool add_activation(const cv::Ptr<cv::dnn::ActivationLayer>& layer, ActivationChain& own,
                       std::string& type) {
     if (layer.empty()) {
       if (banded_) type = unfused_type_;
       banded_.reset();
       activations_.add(layer);
+      order_.clear();
+      return own.add(layer);
     }
-    return banded_ ? activations_.add(layer) : own.add(layer);
+    if (banded_ && !order_.runs_next(self_, *layer)) return false;
+    if (!(banded_ ? activations_.add(layer) : own.add(layer))) return false;
+    order_.joined(layer->name);
+    return true;
   }
 
   // From finalize() (OpenCV finalizes every layer before it fuses any): the layer's output of
@@ -316,9 +327,11 @@ class DepthwiseFusion {
   }
 
  private:
+  const cv::dnn::Layer& self_;
   bool may_;
   std::size_t output_bytes_ = 0;
   std::string unfused_type_;
+  FusionOrder order_;
   std::unique_ptr<BandedDepthwise> banded_;
   ActivationChain activations_;
   std::vector<float> scratch_;
@@ -374,7 +387,7 @@ class PointwiseLayer final : public SameSizeLayer<PointwiseConvolution> {
   }
 
  private:
-  DepthwiseFusion fusion_;
+  DepthwiseFusion fusion_{*this};
 };
 
 // The same in 8-bit integers (pointwise_int8.hpp), where the scope asks for it.
@@ -486,7 +499,7 @@ class StridedConvolutionLayer final : public cv::dnn::Layer {
  private:
   StridedConvolution kernel_;
   ActivationChain activations_;
-  DepthwiseFusion fusion_;
+  DepthwiseFusion fusion_{*this};
 };
 
 // The scope's stand-in for a convolution of that geometry, else OpenCV's.
@@ -553,20 +566,28 @@ class SubpixelDeconvolutionLayer final : public ProductLayer<SubpixelDeconvoluti
         narrow->kernel_.input_channels() != kernel_.output_channels() ||
         output_bytes_ < BandedDepthwise::kSmallestOutputBytes)
       return false;
+    if (!order_.runs_next(*this, *top)) return false;
     second_ = top.staticCast<SubpixelDeconvolutionLayer>();
+    order_.joined(top->name);
     unfused_type_ = type;
     type = "KeyfleetSubpixelDeconvolutionPair";
     return true;
   }
 
-  // An empty layer (OpenCV's unsetAttached) undoes the pair, as DepthwiseFusion's.
+  // An activation for this layer's chain or, once paired, the narrow layer's (where it runs right
+  // after the pair); an empty one (OpenCV's unsetAttached) undoes the pair, as DepthwiseFusion's.
   bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
     if (layer.empty()) {
       if (second_) type = unfused_type_;
       second_.release();
       second_activations_.add(layer);
+      order_.clear();
+      return activations_.add(layer);
     }
-    return second_ ? second_activations_.add(layer) : activations_.add(layer);
+    if (second_ && !order_.runs_next(*this, *layer)) return false;
+    if (!(second_ ? second_activations_.add(layer) : activations_.add(layer))) return false;
+    order_.joined(layer->name);
+    return true;
   }
 
   void finalize(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays) override {
@@ -614,6 +635,7 @@ class SubpixelDeconvolutionLayer final : public ProductLayer<SubpixelDeconvoluti
   bool may_pair_ = scope_layers().banded_depthwise;
   std::size_t output_bytes_ = 0;
   std::string unfused_type_;
+  FusionOrder order_;  // the narrow layer runs right after this one
   cv::Ptr<SubpixelDeconvolutionLayer> second_;
   ActivationChain second_activations_;
   std::vector<float> band_, scratch_;

@@ -189,6 +189,14 @@ bool matrix_product_layers_supported() { return product_supported(); }
 
 bool bfloat16_products_supported() { return product_supported() && bf16_product_supported(); }
 
+namespace {
+thread_local DnnLayersScope* current_scope = nullptr;
+}  // namespace
+
+DnnLayersScope* DnnLayersScope::current() { return current_scope; }
+
+void DnnLayersScope::watch(const cv::dnn::Net& net) { watched_.push_back(net); }
+
 std::mutex& DnnLayersScope::scope_mutex() {
   static std::mutex mutex;
   return mutex;
@@ -196,6 +204,7 @@ std::mutex& DnnLayersScope::scope_mutex() {
 
 DnnLayersScope::DnnLayersScope(DnnLayers layers) : lock_(scope_mutex()) {
   scope_layers() = layers;
+  current_scope = this;
   const std::pair<bool, std::pair<const char*, cv::dnn::LayerFactory::Constructor>> chosen[] = {
       {layers.vectorised_selu, {"Selu", VectorisedSeluLayer::create}},
       {layers.vectorised_hard_swish, {"HardSwish", HardSwishLayer::create}},
@@ -217,11 +226,15 @@ DnnLayersScope::DnnLayersScope(DnnLayers layers) : lock_(scope_mutex()) {
       }
   } catch (...) {
     unregister();
+    current_scope = nullptr;
     throw;
   }
 }
 
-DnnLayersScope::~DnnLayersScope() { unregister(); }
+DnnLayersScope::~DnnLayersScope() {
+  unregister();
+  current_scope = nullptr;
+}
 
 void DnnLayersScope::unregister() {
   for (const std::string& type : registered_) cv::dnn::LayerFactory::unregisterLayer(type);

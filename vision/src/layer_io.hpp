@@ -29,9 +29,8 @@ inline LayerIo float_layer_io(cv::InputArrayOfArrays inputs_arr,
 // output (the last fused layer's) may take memory the first layer's input holds: in the unfused
 // order that input is dead by then, but a fused layer computing band by band still reads it.
 // Where the two overlap, `scratch` (resized) is written instead and apply() copies it back.
-// The fused layers must also run one right after the other in OpenCV's order (a chain, as
-// PP-OCR's are): a layer of another branch between them could find a blob it still reads taken
-// by the output. PP-OCR's detectors at both sizes are checked against OpenCV's own outputs.
+// The fused layers also run one right after the other in OpenCV's order: the stand-ins fuse no
+// pair with a layer of another branch between them (fusion_order.hpp).
 class FusedOutput {
  public:
   FusedOutput(const cv::Mat& in, cv::Mat& out, std::vector<float>& scratch)

@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/vision/dnn_layers.hpp"
 
 namespace keyfleet::vision {
 
@@ -32,6 +33,7 @@ cv::dnn::Net load_onnx_network(const std::string& path, const std::string& what)
   if (net.empty()) throw StartupError(what + ": " + path + " holds no network");
   net.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);
   net.setPreferableTarget(cv::dnn::DNN_TARGET_CPU);
+  if (DnnLayersScope* scope = DnnLayersScope::current()) scope->watch(net);
   return net;
 }
 

@@ -195,7 +195,7 @@ PpocrRecognizer::PpocrRecognizer(const std::map<int, std::string>& models_by_wid
   // keyfleet's stand-ins for OpenCV's 1x1, dense 3x3 and depthwise convolutions (in float: the
   // same probabilities to float rounding in about 0.7x the time); the scope covers the import and
   // the first pass of each network (OpenCV creates layers in both).
-  const vision::DnnLayersScope stand_ins(options.layers);
+  vision::DnnLayersScope stand_ins(options.layers);
   for (const auto& [width, path] : models_by_width) {
     if (width <= 0 || width % 8 != 0)
       throw StartupError("ppocr recogniser: width " + std::to_string(width) +
@@ -209,6 +209,7 @@ PpocrRecognizer::PpocrRecognizer(const std::map<int, std::string>& models_by_wid
     if (net.empty()) throw StartupError("ppocr recogniser: '" + path + "' holds no network");
     net.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);
     net.setPreferableTarget(cv::dnn::DNN_TARGET_CPU);
+    stand_ins.watch(net);  // its first pass below fuses layers (DnnLayersScope::watch)
     nets_.emplace(width, std::move(net));
     // One pass on a blank line: a file of another width or another character list fails here.
     const int shape[] = {1, 3, kHeight, width};

@@ -31,7 +31,8 @@
 // hard swish, scale and shift) and applies it to each output plane while it is in cache. Where a
 // depthwise convolution alone reads a float 1x1 or stride-2 first layer's output of 2 MB or more,
 // or a narrow 2x2 transposed convolution a wide one's (PP-OCR's DB head), the first stand-in takes
-// the second over and runs both a band of rows at a time (banded_depthwise.hpp).
+// the second over and runs both a band of rows at a time (banded_depthwise.hpp), where the second
+// runs right after the first in a network the scope watches (DnnLayersScope::watch).
 // The three product stand-ins need x86-64 with AVX2 and FMA (elsewhere OpenCV's layers stay); any
 // other convolution or transposed convolution stays OpenCV's. With `bfloat16_products`, where the
 // CPU also has AVX512-BF16, they multiply in bfloat16 with float sums (twice the multiply-adds per
@@ -107,12 +108,25 @@ class DnnLayersScope {
   DnnLayersScope(const DnnLayersScope&) = delete;
   DnnLayersScope& operator=(const DnnLayersScope&) = delete;
 
+  // The network (or one of the networks) whose layers this scope creates, named before its first
+  // forward pass (load_onnx_network() names the networks it loads to the calling thread's scope).
+  // A stand-in takes over the layer that reads its output (banded_depthwise, the DB head's pair)
+  // only where that layer runs right after it in OpenCV's order, nothing of another branch
+  // between them (whose blobs OpenCV may lay over the output the pair writes early): it reads the
+  // order off this network when OpenCV first fuses, and keeps what it decided for later set-ups.
+  // The layers of a network never named here take nothing over.
+  void watch(const cv::dnn::Net& net);
+  const std::vector<cv::dnn::Net>& watched() const { return watched_; }
+  // The calling thread's scope, or null.
+  static DnnLayersScope* current();
+
  private:
   static std::mutex& scope_mutex();  // OpenCV refuses a second registration of a constructor
   void unregister();
 
   std::unique_lock<std::mutex> lock_;
   std::vector<std::string> registered_;
+  std::vector<cv::dnn::Net> watched_;
 };
 
 }  // namespace keyfleet::vision
