@@ -94,6 +94,36 @@ TEST(FleetFigures, TheStationsReadLagAndDeferralsAreCarriedAndShownOnlyWhereWrit
   EXPECT_NE(without.find(" - "), std::string::npos) << without;
 }
 
+TEST(FleetFigures, EveryFigureGoesToJsonAndWhatTheStationDidNotWriteIsNull) {
+  StationFigures station;
+  station.read_lag_p95_s = 2.46;
+  station.read_lag_max_s = 7.5;
+  station.deferred = 3;
+  std::vector<FleetRunFigures> runs = {
+      fleet_figures(2, true, {agent(10.0, 0, 1.0), agent(10.0, 4, 1.0)}, station, 10.0, 2, 0.98),
+      fleet_figures(4, true, {agent(12.0, 0, 1.0)}, StationFigures{}, 12.0, 2, 0.98)};
+  const nlohmann::json j = fleet_json(runs, 2, "CPU: test");
+  EXPECT_EQ(j.at("cores"), 2);
+  EXPECT_EQ(j.at("cpu"), "CPU: test");
+  EXPECT_EQ(j.at("largest_realtime"), 2) << "4 fell behind";
+  ASSERT_EQ(j.at("runs").size(), 2u);
+  const auto& first = j.at("runs")[0];
+  EXPECT_EQ(first.at("drones"), 2);
+  EXPECT_EQ(first.at("late_frames"), runs[0].late_frames);
+  EXPECT_DOUBLE_EQ(first.at("station_read_lag_p95_s").get<double>(), 2.46);
+  EXPECT_DOUBLE_EQ(first.at("station_read_lag_max_s").get<double>(), 7.5);
+  EXPECT_EQ(first.at("station_deferred"), 3);
+  EXPECT_EQ(first.at("stage_ms_per_frame").size(), runs[0].stage_ms_per_frame.size());
+  EXPECT_DOUBLE_EQ(first.at("agent_cpu_ms_per_frame").get<double>(),
+                   runs[0].agent_cpu_ms_per_frame);
+  const auto& second = j.at("runs")[1];
+  EXPECT_TRUE(second.at("station_read_lag_max_s").is_null());
+  EXPECT_TRUE(second.at("station_deferred").is_null());
+  EXPECT_FALSE(second.at("keeps_realtime").get<bool>());
+  runs[1].failures.push_back("drone_3 exited with code 1");
+  EXPECT_EQ(fleet_json(runs, 2, "").at("runs")[1].at("failures")[0], "drone_3 exited with code 1");
+}
+
 TEST(StreamSummary, ReadsWhatTheAgentWritesAndNamesABrokenFile) {
   test::TempDir dir;
   const std::string path = dir.file("stream.json");

@@ -12,7 +12,6 @@
 #include "keyfleet/common/shutdown_signal.hpp"
 #include "keyfleet/mission/fleet_bench.hpp"
 #include "keyfleet/mission/mission_config.hpp"
-#include "keyfleet/vision/cpu_class.hpp"
 
 namespace keyfleet::commands {
 namespace {
@@ -40,16 +39,8 @@ int run_fleet(FleetOptions& o) {
   const std::string table = mission::format_fleet_table(runs, cores);
   std::printf("\n%s", table.c_str());
   // The figures depend on the CPU class: say which, and which kernels the agents' model ran.
-  const MissionConfig mission = load_mission_config(o.bench.mission_config);
-  const SemanticConfig& semantic = mission.agent.selector.semantic;
-  const bool reader_int8 = mission.station.analysis.text.ppocr.int8;
-  std::printf(
-      "%s\nthe agents' semantic model: %s (semantic.bfloat16: %s, int8: %s)\nthe station's "
-      "reader: %s (analysis.text.ppocr_int8: %s)\n",
-      vision::cpu_class_line().c_str(),
-      vision::segmenter_kernels(semantic.bfloat16, semantic.int8).c_str(),
-      semantic.bfloat16 ? "true" : "false", semantic.int8 ? "true" : "false",
-      vision::segmenter_kernels(false, reader_int8).c_str(), reader_int8 ? "true" : "false");
+  std::printf("%s\n",
+              mission::fleet_cpu_lines(load_mission_config(o.bench.mission_config)).c_str());
   for (const auto& r : runs)
     for (const auto& f : r.failures) std::fprintf(stderr, "N=%d: %s\n", r.drones, f.c_str());
   return shutdown.stop.requested() ? 1 : 0;

@@ -16,6 +16,7 @@
 #include "keyfleet/mission/mission_config.hpp"
 #include "keyfleet/scenario/scenario_config.hpp"
 #include "keyfleet/scenario/scenario_generator.hpp"
+#include "keyfleet/vision/cpu_class.hpp"
 
 namespace keyfleet::mission {
 namespace {
@@ -60,6 +61,17 @@ StationFigures read_station(const ProcessFigures& station) {
     // A station without analysis has no such table: CPU only.
   }
   return figures;
+}
+
+// `j` to `path` whole: written beside it, then renamed over it (a reader never sees half).
+void write_json_file(const fs::path& path, const nlohmann::json& j) {
+  const fs::path partial = path.string() + ".partial";
+  {
+    std::ofstream out(partial);
+    out << j.dump(2) << "\n";
+    if (!out) throw std::runtime_error("cannot write " + partial.string());
+  }
+  fs::rename(partial, path);
 }
 
 std::string timestamp() {
@@ -206,6 +218,53 @@ std::string format_fleet_table(const std::vector<FleetRunFigures>& runs, unsigne
   return out;
 }
 
+std::string fleet_cpu_lines(const MissionConfig& mission) {
+  const SemanticConfig& semantic = mission.agent.selector.semantic;
+  const bool reader_int8 = mission.station.analysis.text.ppocr.int8;
+  return vision::cpu_class_line() + "\nthe agents' semantic model: " +
+         vision::segmenter_kernels(semantic.bfloat16, semantic.int8) +
+         " (semantic.bfloat16: " + (semantic.bfloat16 ? "true" : "false") +
+         ", int8: " + (semantic.int8 ? "true" : "false") +
+         ")\nthe station's reader: " + vision::segmenter_kernels(false, reader_int8) +
+         " (analysis.text.ppocr_int8: " + (reader_int8 ? "true" : "false") + ")";
+}
+
+nlohmann::json fleet_json(const std::vector<FleetRunFigures>& runs, unsigned cores,
+                          const std::string& cpu) {
+  const auto written = [](double v) { return v >= 0 ? nlohmann::json(v) : nlohmann::json(); };
+  nlohmann::json out = {{"cores", cores}, {"cpu", cpu}, {"runs", nlohmann::json::array()}};
+  const auto largest = largest_realtime(runs);
+  out["largest_realtime"] = largest ? nlohmann::json(*largest) : nlohmann::json();
+  for (const FleetRunFigures& r : runs)
+    out["runs"].push_back({
+        {"drones", r.drones},
+        {"realtime", r.realtime},
+        {"wall_s", r.wall_s},
+        {"rtf_min", r.rtf_min},
+        {"rtf_mean", r.rtf_mean},
+        {"frames", r.frames},
+        {"late_frames", r.late_frames},
+        {"max_lag_ms", r.max_lag_ms},
+        {"agent_cpu_ms_per_frame", r.agent_cpu_ms_per_frame},
+        {"agent_stream_cpu_ms_per_frame", r.agent_stream_cpu_ms_per_frame},
+        {"stage_ms_per_frame", r.stage_ms_per_frame},
+        {"station_cpu_ms_per_frame", r.station_cpu_ms_per_frame},
+        {"station_work_cpu_ms_per_frame", r.station_work_cpu_ms_per_frame},
+        {"station_keyframes", r.station_keyframes},
+        {"station_text_ms_per_keyframe", r.station_text_ms_per_keyframe},
+        {"station_places_ms_per_keyframe", r.station_places_ms_per_keyframe},
+        {"station_text_cpu_ms_per_keyframe", r.station_text_cpu_ms_per_keyframe},
+        {"station_read_lag_p95_s", written(r.station_read_lag_p95_s)},
+        {"station_read_lag_max_s", written(r.station_read_lag_max_s)},
+        {"station_deferred",
+         r.station_deferred >= 0 ? nlohmann::json(r.station_deferred) : nlohmann::json()},
+        {"frames_per_s_per_core", r.frames_per_s_per_core},
+        {"keeps_realtime", r.keeps_realtime},
+        {"failures", r.failures},
+    });
+  return out;
+}
+
 std::vector<FleetRunFigures> run_fleet_bench(const FleetBenchOptions& o,
                                              const MissionBinaries& binaries, Logger logger,
                                              std::ostream& progress, const StopToken& stop) {
@@ -267,8 +326,10 @@ std::vector<FleetRunFigures> run_fleet_bench(const FleetBenchOptions& o,
                                    result.agents_wall_s, cores, o.realtime_threshold));
       runs.back().failures = failures;
       progress << format_fleet_table({runs.back()}, cores) << std::flush;
+      write_json_file(root / "fleet.json", fleet_json(runs, cores, fleet_cpu_lines(base)));
     }
   }
+  if (!runs.empty()) progress << "\nevery figure: " << (root / "fleet.json").string() << "\n";
   return runs;
 }
 

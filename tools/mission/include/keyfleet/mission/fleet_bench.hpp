@@ -2,8 +2,10 @@
 // `keyfleet bench fleet`: how many agents (plus the station) keep real time on this machine.
 // Each N runs as a real mission (separate processes, their own DDS domain and partition) on
 // the first N drones of one generated scenario; the figures come from each agent's
-// stream.json, the processes' CPU (wait4) and the station's database.
+// stream.json, the processes' CPU (wait4) and the station's database, and go to fleet.json in
+// the bench's folder after every run.
 #include <map>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <ostream>
 #include <string>
@@ -94,6 +96,16 @@ std::optional<int> largest_realtime(const std::vector<FleetRunFigures>& runs);
 
 // The figures as a text table, then the per-stage CPU table.
 std::string format_fleet_table(const std::vector<FleetRunFigures>& runs, unsigned cores);
+
+// The CPU class the figures were taken on and the kernels the mission's agents and station run
+// (vision/cpu_class.hpp): the lines the benchmark prints after its table.
+std::string fleet_cpu_lines(const MissionConfig& mission);
+
+// Every figure of the runs as JSON (fleet.json beside the runs): {"cores", "largest_realtime"
+// (null where none), "cpu" (fleet_cpu_lines), "runs": [one object per run, the fields of
+// FleetRunFigures by name; a figure the station did not write is null]}.
+nlohmann::json fleet_json(const std::vector<FleetRunFigures>& runs, unsigned cores,
+                          const std::string& cpu);
 
 std::vector<FleetRunFigures> run_fleet_bench(const FleetBenchOptions& options,
                                              const MissionBinaries& binaries, Logger logger,
