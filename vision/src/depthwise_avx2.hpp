@@ -12,9 +12,12 @@ bool depthwise_avx2_supported();
 
 // dst (ho x wo) = bias + sum over taps (ky, kx) of kernel[ky * kw + kx] times src (h x w) at
 // (y sh - pt + ky dh, x sw - pl + kx dw), zero outside src (sh: the stride down columns, sw along
-// rows: 1 or 2). Taps of weight 0 are skipped; the taps are summed in the order ky, kx (as the
-// portable code does), over a copy of the plane with a zero border (with sw 2, its even and odd
-// columns apart). Requires depthwise_avx2_supported().
+// rows: 1 or 2), over a copy of the plane with a zero border (with sw 2, its even and odd
+// columns apart). Kernels of 3 or 5 rows without dilation and without zero taps (PP-OCR's) load
+// each input vector once for the up to 4 output rows it feeds and sum the taps kernel column by
+// column (kx, then ky); other kernels skip their zero taps and sum in the order ky, kx (as the
+// portable code does). Either way an output's sum does not depend on which rows are computed
+// together (a band of rows gives the whole plane's floats). Requires depthwise_avx2_supported().
 void depthwise_plane_avx2(const float* src, int h, int w, const float* kernel, int kh, int kw,
                           int dh, int dw, int pt, int pl, int sh, int sw, float bias, float* dst,
                           int ho, int wo);
