@@ -21,6 +21,18 @@ void copy_with_zero_border(const float* src, int h, int w, int top, int left, in
   }
 }
 
+void copy_into_zero_border(const float* src, int h, int w, int top, int left, int rows, int width,
+                           float* out) {
+  for (int r = 0; r < rows; ++r) {
+    float* row = out + std::size_t(r) * width;
+    const int y = r - top;
+    if (y < 0 || y >= h)
+      std::fill(row, row + width, 0.f);
+    else
+      std::copy_n(src + std::size_t(y) * w, w, row + left);
+  }
+}
+
 void finish_columns(const float* products, std::size_t columns, int outputs, int n0, int n1,
                     float* dst, int pixels, const cv::dnn::ActivationLayer* activation) {
   if (n1 <= n0) return;

@@ -25,6 +25,13 @@ inline int summed_length(int inputs, bool bfloat16) { return bfloat16 ? (inputs 
 void copy_with_zero_border(const float* src, int h, int w, int top, int left, int rows, int width,
                            float* out);
 
+// As copy_with_zero_border into an `out` whose first `rows` rows of `width` floats already hold
+// zeros outside columns [left, left + w) (written so before): rows inside src are copied alone,
+// rows outside it zeroed whole. Saves a band's per-row fills where a kernel copies band after
+// band of planes of one width into the same buffer.
+void copy_into_zero_border(const float* src, int h, int w, int top, int left, int rows, int width,
+                           float* out);
+
 // Columns [n0, n1) of a 1x1 product's `outputs` planes into dst (planes of `pixels` floats), the
 // activation (may be null) applied on the way: from `products` (planes `columns` apart), or in
 // place where products is null (the product was written straight into dst).
