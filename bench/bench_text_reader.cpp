@@ -6,7 +6,9 @@
 //    native 1280x720 and resized to 640x480; the recogniser per input width on a real word crop;
 //    the recogniser's work around its network (perspective cut, CTC decoding). The whole read
 //    with the station's default (the wide 1x1 convolutions in int8, analysis.text.ppocr_int8)
-//    and in float (ppocr_float); the recogniser in both (int8:1 and int8:0).
+//    and in float (ppocr_float); the recogniser in both (int8:1 and int8:0). Where a pass of the
+//    detector at 640x480 and of the recogniser at width 160 spends its time, by layer type
+//    (BM_PpocrLayerTypes: counters in ms).
 // Cases whose models (scripts/fetch_ppocr.sh) or data (KEYFLEET_DATA) are missing are skipped
 // with the reason. Prints figures; never pass/fail.
 // The recogniser's crops of one keyframe are read one at a time: OpenCV 4.6 cannot batch them.
@@ -285,6 +287,46 @@ void BM_PpocrRecognizerOverhead(benchmark::State& state) {
   }
 }
 
+// Where a pass of arg 0's network (0: the detector at 640x480, 1: the Latin recogniser at width
+// 160) spends its time, by layer type (OpenCV's per-layer profile, summed over a pass and
+// averaged over the iterations; a fused pair counts under its first layer's type), with the
+// station's layers: the float stand-ins, the wide 1x1 convolutions in int8. One thread.
+void BM_PpocrLayerTypes(benchmark::State& state) {
+  const bool detector = state.range(0) == 0;
+  std::string why;
+  const auto model =
+      ppocr_file(detector ? "ppocr_det_640x480.onnx" : "ppocr_rec_latin_w160.onnx", why);
+  if (!model) {
+    state.SkipWithError(why.c_str());
+    return;
+  }
+  cv::setNumThreads(1);
+  const int shape[] = {1, 3, detector ? 480 : PpocrRecognizer::kHeight, detector ? 640 : 160};
+  cv::Mat input(4, shape, CV_32F);
+  cv::randu(input, -1, 1);
+  keyfleet::vision::DnnLayers layers = keyfleet::vision::DnnLayers::in_float();
+  layers.int8_pointwise = true;
+  cv::dnn::Net net;
+  {
+    const keyfleet::vision::DnnLayersScope stand_ins(layers);
+    net = keyfleet::vision::load_onnx_network(*model, "ppocr");
+    net.setInput(input);
+    net.forward();  // the first pass creates, fuses and allocates the layers
+  }
+  std::map<std::string, double> ms_by_type;
+  std::vector<double> ticks;
+  for (auto _ : state) {
+    net.setInput(input);
+    benchmark::DoNotOptimize(net.forward().data);
+    net.getPerfProfile(ticks);
+    for (std::size_t i = 0; i < ticks.size(); ++i)
+      ms_by_type[net.getLayer(int(i) + 1)->type] += ticks[i] * 1e3 / cv::getTickFrequency();
+  }
+  for (const auto& [type, ms] : ms_by_type)
+    if (ms > 0) state.counters[type] = ms / double(state.iterations());
+  state.SetLabel(detector ? "detector 640x480, ms by layer type" : "recogniser w160, ms by type");
+}
+
 void timed(benchmark::internal::Benchmark* b) {
   b->Unit(benchmark::kMillisecond)
       ->UseRealTime()
@@ -326,6 +368,12 @@ BENCHMARK(BM_PpocrRecognize)
     ->ArgsProduct({{160, 320, 640}, {1, 2}, {0, 1}, {0, 1}})
     ->Apply(timed)
     ->Iterations(10);
+BENCHMARK(BM_PpocrLayerTypes)
+    ->ArgNames({"det640x480_0_rec160_1"})
+    ->Args({0})
+    ->Args({1})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(30);
 BENCHMARK(BM_PpocrRecognizerOverhead)
     ->ArgNames({"width"})
     ->Args({160})
