@@ -265,6 +265,38 @@ TEST(BandedDepthwise, SetUpAgainForAnotherInputSize) {
   }
 }
 
+// first -> ReLU -> second, with a branch from the input (branch -> branch_next) whose layers take
+// ids between the ReLU and `second`, and a sum of second's and branch_next's outputs: OpenCV lays
+// second's output over branch's, which branch_next frees. `type`: first's type once it ran.
+struct BranchBetween {
+  cv::dnn::LayerParams first, second, branch, branch_next;
+};
+cv::Mat run_with_branch_between(const BranchBetween& layers_of, const cv::Mat& input,
+                                std::optional<DnnLayers> layers, std::string* type) {
+  std::optional<DnnLayersScope> scope;
+  if (layers) scope.emplace(*layers);
+  cv::dnn::Net net;
+  auto add = [&](const std::string& name, cv::dnn::LayerParams p, int from) {
+    p.name = name;
+    const int id = net.addLayer(name, p.type, p);
+    net.connect(from, 0, id, 0);
+    return id;
+  };
+  const int relu = add("relu", activation("ReLU"), add("first", layers_of.first, 0));
+  const int side = add("branch_next", layers_of.branch_next, add("branch", layers_of.branch, 0));
+  const int second = add("second", layers_of.second, relu);
+  cv::dnn::LayerParams sum;
+  sum.name = sum.type = "Eltwise";
+  const int total = net.addLayer(sum.name, sum.type, sum);
+  net.connect(second, 0, total, 0);
+  net.connect(side, 0, total, 1);
+  if (scope) scope->watch(net);
+  net.setInput(input);
+  cv::Mat out = net.forward().clone();
+  if (type) *type = net.getLayer("first")->type;
+  return out;
+}
+
 TEST(BandedDepthwise, NotWhereALayerOfAnotherBranchRunsBetween) {
   if (!supported()) GTEST_SKIP() << "no AVX2 + FMA: OpenCV's layers stay";
   // OpenCV runs layers in the order of their ids. Here a branch from the input runs between the
@@ -280,32 +312,12 @@ TEST(BandedDepthwise, NotWhereALayerOfAnotherBranchRunsBetween) {
   for (cv::Mat* m : {&branch, &branch_bias, &next, &next_bias})
     rng.fill(*m, cv::RNG::UNIFORM, -1, 1);
   const cv::Mat input = random_input(rng, 1, c.cin, c.h, c.w);
+  const BranchBetween net{convolution(l.pointwise, l.pointwise_bias, 1, 1, 1),
+                          convolution(l.depthwise, l.depthwise_bias, 3, 1, c.channels),
+                          convolution(branch, branch_bias, 1, 1, 1),
+                          convolution(next, next_bias, 1, 1, 1)};
   auto forward = [&](std::optional<DnnLayers> layers, std::string* type) {
-    std::optional<DnnLayersScope> scope;
-    if (layers) scope.emplace(*layers);
-    cv::dnn::Net net;
-    auto add = [&](const std::string& name, cv::dnn::LayerParams p, int from) {
-      p.name = name;
-      const int id = net.addLayer(name, p.type, p);
-      net.connect(from, 0, id, 0);
-      return id;
-    };
-    const int pointwise = add("pointwise", convolution(l.pointwise, l.pointwise_bias, 1, 1, 1), 0);
-    const int relu = add("relu", activation("ReLU"), pointwise);
-    const int side = add("branch", convolution(branch, branch_bias, 1, 1, 1), 0);
-    const int side_next = add("branch_next", convolution(next, next_bias, 1, 1, 1), side);
-    const int depthwise =
-        add("depthwise", convolution(l.depthwise, l.depthwise_bias, 3, 1, c.channels), relu);
-    cv::dnn::LayerParams sum;
-    sum.name = sum.type = "Eltwise";
-    const int total = net.addLayer(sum.name, sum.type, sum);
-    net.connect(depthwise, 0, total, 0);
-    net.connect(side_next, 0, total, 1);
-    if (scope) scope->watch(net);
-    net.setInput(input);
-    cv::Mat out = net.forward().clone();
-    if (type) *type = net.getLayer("pointwise")->type;
-    return out;
+    return run_with_branch_between(net, input, layers, type);
   };
   std::string type;
   const cv::Mat got = forward(DnnLayers::in_float(), &type);
@@ -432,31 +444,10 @@ TEST(SubpixelDeconvolutionPair, NotWhereALayerOfAnotherBranchRunsBetween) {
   by4.set("kernel_size", cv::dnn::DictValue::arrayInt(kernel, 2));
   by4.set("stride", cv::dnn::DictValue::arrayInt(stride, 2));
   const cv::Mat input = random_input(rng, 1, 24, 117, 160);
+  const BranchBetween net{transposed_2x2(wide, wide_bias), transposed_2x2(last, last_bias), by4,
+                          convolution(next, next_bias, 1, 1, 1)};
   auto forward = [&](std::optional<DnnLayers> layers, std::string* type) {
-    std::optional<DnnLayersScope> scope;
-    if (layers) scope.emplace(*layers);
-    cv::dnn::Net net;
-    auto add = [&](const std::string& name, cv::dnn::LayerParams p, int from) {
-      p.name = name;
-      const int id = net.addLayer(name, p.type, p);
-      net.connect(from, 0, id, 0);
-      return id;
-    };
-    const int first = add("wide", transposed_2x2(wide, wide_bias), 0);
-    const int relu = add("relu", activation("ReLU"), first);
-    const int side = add("branch", by4, 0);
-    const int side_next = add("branch_next", convolution(next, next_bias, 1, 1, 1), side);
-    const int narrow = add("narrow", transposed_2x2(last, last_bias), relu);
-    cv::dnn::LayerParams sum;
-    sum.name = sum.type = "Eltwise";
-    const int total = net.addLayer(sum.name, sum.type, sum);
-    net.connect(narrow, 0, total, 0);
-    net.connect(side_next, 0, total, 1);
-    if (scope) scope->watch(net);
-    net.setInput(input);
-    cv::Mat out = net.forward().clone();
-    if (type) *type = net.getLayer("wide")->type;
-    return out;
+    return run_with_branch_between(net, input, layers, type);
   };
   std::string type;
   const cv::Mat got = forward(DnnLayers::in_float(), &type);
