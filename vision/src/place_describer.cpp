@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/vision/model_files.hpp"
@@ -49,8 +50,11 @@ void l2_normalise(std::vector<float>& v) {
   for (float& x : v) x *= inverse;
 }
 
-DnnPlaceDescriber::DnnPlaceDescriber(const std::string& model_path)
+DnnPlaceDescriber::DnnPlaceDescriber(const std::string& model_path, DnnLayers layers)
     : info_(read_place_describer_info(model_path)) {
+  // OpenCV creates the layers while importing and on the first forward pass (the probe below).
+  std::optional<DnnLayersScope> stand_ins;
+  if (layers.any()) stand_ins.emplace(layers);
   net_ = load_onnx_network(model_path, "place descriptor");
   try {
     describe(cv::Mat(info_.input_size, CV_8UC3, cv::Scalar::all(128)));

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "keyfleet/vision/dnn_layers.hpp"
+
 namespace keyfleet::vision {
 
 struct PlaceDescriberInfo {
@@ -36,8 +38,12 @@ void l2_normalise(std::vector<float>& v);
 class DnnPlaceDescriber final : public PlaceDescriber {
  public:
   // Loads the model and runs it once at its input size: a missing or corrupt file, or a
-  // network whose output is not `dimensions` long, is a StartupError naming the file.
-  explicit DnnPlaceDescriber(const std::string& model_path);
+  // network whose output is not `dimensions` long, is a StartupError naming the file. `layers`:
+  // keyfleet's stand-ins for its layers (dnn_layers.hpp; in float, the same descriptor to float
+  // rounding: PlaceNet at 160x120 about 0.85 ms a view on one AVX2 thread against 1.3 with
+  // OpenCV's own); DnnLayers::opencv() keeps OpenCV's.
+  explicit DnnPlaceDescriber(const std::string& model_path,
+                             DnnLayers layers = DnnLayers::in_float());
   std::vector<float> describe(const cv::Mat& bgr) override;
   const PlaceDescriberInfo& info() const override { return info_; }
 
