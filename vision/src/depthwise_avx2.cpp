@@ -171,13 +171,6 @@ __attribute__((target("avx2,fma"))) void reused_plane(const float* weights, int 
   }
 }
 
-// n floats from src to dst.
-__attribute__((target("avx2,fma"))) inline void copy_row(const float* src, int n, float* dst) {
-  int x = 0;
-  for (; x + 8 <= n; x += 8) _mm256_storeu_ps(dst + x, _mm256_loadu_ps(src + x));
-  for (; x < n; ++x) dst[x] = src[x];
-}
-
 // The plane with a zero border (pt rows above, pl columns left) as two planes of `row` floats a
 // row, its even columns then its odd ones, in one pass from src.
 __attribute__((target("avx2,fma"))) void bordered_phases(const float* src, int h, int w, int pt,
@@ -256,33 +249,22 @@ void depthwise_plane_avx2(const float* src, int h, int w, const float* kernel, i
   // The bordered plane; a plane of the geometry of the one before finds its zero border still
   // there and copies its rows alone (a layer's planes come one after another: on PP-OCR's
   // recogniser's 40-column planes the border took a quarter of the time).
-  struct Bordered {
-    std::vector<float> floats;
-    int h = -1, w = 0, pt = 0, pl = 0, height = 0, row = 0;
-  };
-  thread_local Bordered bordered;
+  thread_local ZeroBorderedRows bordered;
+  thread_local std::vector<float> phases;
+  const float* plane = nullptr;
   int row = 0;  // floats between rows of `plane`
   if (sw == 1) {
     row = std::max(vector_columns + (kw - 1) * dw, w + pl);
-    Bordered& b = bordered;
-    if (b.h == h && b.w == w && b.pt == pt && b.pl == pl && b.height == height && b.row == row) {
-      for (int y = 0; y < h; ++y)
-        copy_row(src + std::size_t(y) * w, w, &b.floats[std::size_t(y + pt) * row + pl]);
-    } else {
-      b.floats.resize(std::size_t(height) * row);
-      copy_with_zero_border(src, h, w, pt, pl, height, row, b.floats.data());
-      b.h = h, b.w = w, b.pt = pt, b.pl = pl, b.height = height, b.row = row;
-    }
+    plane = bordered.fill(src, h, w, pt, pl, height, row);
   } else {
     // With stride 2 along rows the even and odd columns of the bordered plane are two planes of
     // half its width, so that each tap reads consecutive columns of one of them (tap column kx
     // dw: the even plane's from kx dw / 2 on, or the odd plane's).
     row = std::max(vector_columns + ((kw - 1) * dw + 1) / 2, (w + pl) / 2 + 1) + 1;
-    bordered.floats.resize(2 * std::size_t(height) * row);
-    bordered.h = -1;  // another layout
-    bordered_phases(src, h, w, pt, pl, height, row, bordered.floats.data());
+    phases.resize(2 * std::size_t(height) * row);
+    bordered_phases(src, h, w, pt, pl, height, row, phases.data());
+    plane = phases.data();
   }
-  const float* plane = bordered.floats.data();
   const std::size_t odd_plane = std::size_t(height) * row;
   // Kernels of 3 or 5 rows without dilation (PP-OCR's): each input vector loaded once for the
   // output rows it feeds (reused_rows), where the taps are all there (a zero tap would cost a

@@ -25,12 +25,21 @@ inline int summed_length(int inputs, bool bfloat16) { return bfloat16 ? (inputs 
 void copy_with_zero_border(const float* src, int h, int w, int top, int left, int rows, int width,
                            float* out);
 
-// As copy_with_zero_border into an `out` whose first `rows` rows of `width` floats already hold
-// zeros outside columns [left, left + w) (written so before): rows inside src are copied alone,
-// rows outside it zeroed whole. Saves a band's per-row fills where a kernel copies band after
-// band of planes of one width into the same buffer.
-void copy_into_zero_border(const float* src, int h, int w, int top, int left, int rows, int width,
-                           float* out);
+// A buffer of rows of `width` floats that holds a plane's rows behind a zero border, as
+// copy_with_zero_border lays them out, and keeps that border from one fill to the next: where
+// the last fill had the same left, w and width and at least as many rows, the plane's rows are
+// copied alone (rows outside it zeroed whole), else every float is written. For kernels that
+// copy plane after plane (a layer's channels, a band's) of one geometry: the per-row fills cost
+// more than the copy on narrow planes. One per thread.
+class ZeroBorderedRows {
+ public:
+  // The filled buffer: `rows` rows, row r being src's row r - top.
+  const float* fill(const float* src, int h, int w, int top, int left, int rows, int width);
+
+ private:
+  std::vector<float> floats_;
+  int rows_ = 0, width_ = 0, w_ = 0, left_ = 0;  // the border written last
+};
 
 // Columns [n0, n1) of a 1x1 product's `outputs` planes into dst (planes of `pixels` floats), the
 // activation (may be null) applied on the way: from `products` (planes `columns` apart), or in

@@ -201,33 +201,17 @@ void Winograd3x3::transform_input(const float* src, int h, int w, int ty0, int t
   const int width = 4 * blocks_across_ + 8, rows = 4 * (ty1 - ty0) + 2;
   const std::size_t plane = v_plane_;  // between the 36 transforms
   cv::parallel_for_(cv::Range(0, cin_), [&](const cv::Range& channels) {
-    // A band's rows of a channel; its zero columns stay from one copy to the next (the rows and
-    // the width it was bordered for: the same for every band of a layer but the last).
-    struct Bordered {
-      std::vector<float> floats;
-      int rows = 0, width = 0, w = 0;
-    };
-    thread_local Bordered bordered;
-    const bool ready = bordered.width == width && bordered.w == w && bordered.rows >= rows;
-    if (!ready) {
-      bordered.floats.resize(std::size_t(rows) * width);
-      bordered.rows = 0;
-    }
+    // A band's rows of a channel; its zero columns stay from one channel and band to the next.
+    thread_local ZeroBorderedRows bordered;
     for (int c = channels.start; c < channels.end; ++c) {
       // Bordered row r is source row 4 ty0 - 1 + r, behind one zero column.
-      if (bordered.rows >= rows) {
-        copy_into_zero_border(src + std::size_t(c) * h * w, h, w, 1 - 4 * ty0, 1, rows, width,
-                              bordered.floats.data());
-      } else {
-        copy_with_zero_border(src + std::size_t(c) * h * w, h, w, 1 - 4 * ty0, 1, rows, width,
-                              bordered.floats.data());
-        bordered.rows = rows, bordered.width = width, bordered.w = w;
-      }
+      const float* rows_of_band =
+          bordered.fill(src + std::size_t(c) * h * w, h, w, 1 - 4 * ty0, 1, rows, width);
       for (int ty = ty0; ty < ty1; ++ty)
         for (int group = 0; group < blocks_across_; group += 8) {
           const int tx = group_start(group);
           input_blocks(
-              bordered.floats.data() + std::size_t(4 * (ty - ty0)) * width + 4 * tx, width,
+              rows_of_band + std::size_t(4 * (ty - ty0)) * width + 4 * tx, width,
               v_.data() + std::size_t(c) * columns_ + std::size_t(ty - ty0) * blocks_across_ + tx,
               plane);
         }
