@@ -219,14 +219,10 @@ void SubpixelDeconvolution::run_2x2(const float* src, int h, int w, float* dst,
   // need not be read in before they are written.
   const bool stream = std::size_t(4) * cout_ * plane * sizeof(float) >= kStreamedOutputBytes &&
                       w % 2 == 0 && vector_aligned(dst);
-  band_input_.resize(std::size_t(cin_) * band * w);
-  products_.resize(std::size_t(4) * cout_ * band * w);
   for (int y0 = 0; y0 < h; y0 += band) {
     const int rows = std::min(band, h - y0);
     const std::size_t pixels = std::size_t(rows) * w;
-    for (int c = 0; c < cin_; ++c)
-      std::copy_n(src + c * plane + std::size_t(y0) * w, pixels, band_input_.data() + c * pixels);
-    phases_2x2_->run(band_input_.data(), int(pixels), products_.data(), nullptr);
+    band_phase_products(src, h, w, y0, rows);
     interleave(
         y0, y0 + rows, h, w, dst, activation,
         [&](int phase, int c, int y) {
@@ -237,16 +233,26 @@ void SubpixelDeconvolution::run_2x2(const float* src, int h, int w, float* dst,
   }
 }
 
+void SubpixelDeconvolution::band_phase_products(const float* src, int h, int w, int y0, int rows) {
+  const std::size_t plane = std::size_t(h) * w, pixels = std::size_t(rows) * w;
+  products_.resize(std::size_t(4) * cout_ * pixels);
+  if (phases_2x2_->runs_columns()) {
+    phases_2x2_->run_columns(src + std::size_t(y0) * w, plane, int(pixels), products_.data(),
+                             pixels, nullptr);
+    return;
+  }
+  band_input_.resize(std::size_t(cin_) * pixels);
+  for (int c = 0; c < cin_; ++c)
+    std::copy_n(src + c * plane + std::size_t(y0) * w, pixels, band_input_.data() + c * pixels);
+  phases_2x2_->run(band_input_.data(), int(pixels), products_.data(), nullptr);
+}
+
 void SubpixelDeconvolution::run_2x2_band(const float* src, int h, int w, int y0, int y1,
                                          float* band, const cv::dnn::ActivationLayer* activation) {
   CV_Assert(kernel_ == 2 && cout_ > kNarrowOutputs && 0 <= y0 && y0 < y1 && y1 <= h);
   const int rows = y1 - y0;
-  const std::size_t plane = std::size_t(h) * w, pixels = std::size_t(rows) * w;
-  band_input_.resize(std::size_t(cin_) * pixels);
-  products_.resize(std::size_t(4) * cout_ * pixels);
-  for (int c = 0; c < cin_; ++c)
-    std::copy_n(src + c * plane + std::size_t(y0) * w, pixels, band_input_.data() + c * pixels);
-  phases_2x2_->run(band_input_.data(), int(pixels), products_.data(), nullptr);
+  const std::size_t pixels = std::size_t(rows) * w;
+  band_phase_products(src, h, w, y0, rows);
   // The band's output as an image of its own: `rows` input rows, planes 4 rows w apart.
   interleave(0, rows, rows, w, band, activation, [&](int phase, int c, int y) {
     return products_.data() + (std::size_t(phase) * cout_ + c) * pixels + std::size_t(y) * w;

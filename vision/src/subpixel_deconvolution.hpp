@@ -71,6 +71,9 @@ class SubpixelDeconvolution : public ProductKernel {
   // row y in turn, from phase_row(phase, c, y); then the activation on those output rows.
   // `stream`: each plane's rows are put together in a small buffer and written past the caches
   // (dst's planes and rows keep the vectors 32-byte aligned).
+  // 2x2: products_ = the four phases' products of input rows [y0, y0 + rows) (each phase's
+  // cout_ planes of rows x w), read where they are where the product can, else copied first.
+  void band_phase_products(const float* src, int h, int w, int y0, int rows);
   void interleave(int y0, int y1, int h, int w, float* dst,
                   const cv::dnn::ActivationLayer* activation,
                   const std::function<const float*(int, int, int)>& phase_row, bool stream = false);
@@ -91,7 +94,7 @@ class SubpixelDeconvolution : public ProductKernel {
   int padded_width_ = 0, columns_ = 0;
   ProductInput input_;
   std::vector<float> products_;
-  std::vector<float> band_input_;  // 2x2: the input's band, channels contiguous
+  std::vector<float> band_input_;  // 2x2, bfloat16: the input's band, channels contiguous
 };
 
 }  // namespace keyfleet::vision
