@@ -5,12 +5,14 @@
 
 #include <algorithm>
 #include <cctype>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "dense_layers.hpp"
 #include "opencv_backed_layer.hpp"
+#include "upsampling_hand_over.hpp"
 
 namespace keyfleet::vision {
 namespace {
@@ -44,8 +46,10 @@ bool planes_contiguous(const cv::Mat& m) {
 // docs/results/2026-11-28-sums-and-depthwise.md). This one adds whole planes in SIMD, in
 // OpenCV's order ((x0 + x1) + x2 ...: the same floats), then applies a fused activation to the
 // plane. Anything else (products, maxima, coefficients other than 1, inputs of other shapes or
-// channel counts) runs the OpenCV layer this one holds, which also gives the shapes.
-class ElementwiseSumLayer final : public OpenCvBackedLayer<cv::dnn::EltwiseLayer> {
+// channel counts) runs the OpenCV layer this one holds, which also gives the shapes. Of two
+// inputs, one may be an upsampling's that waits for this layer (upsampling_hand_over.hpp).
+class ElementwiseSumLayer final : public OpenCvBackedLayer<cv::dnn::EltwiseLayer>,
+                                  public UpsamplingReader {
  public:
   ElementwiseSumLayer(const cv::dnn::LayerParams& params, cv::Ptr<cv::dnn::EltwiseLayer> opencv)
       : OpenCvBackedLayer(params, std::move(opencv), "KeyfleetSum") {}
@@ -68,10 +72,21 @@ class ElementwiseSumLayer final : public OpenCvBackedLayer<cv::dnn::EltwiseLayer
     return true;
   }
 
+  // An empty layer: OpenCV undoes its fusions (before it fuses again), hand-overs included.
   bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
+    if (layer.empty()) {
+      opencv_->setActivation(layer);
+      activation_.release();
+      hand_overs_.clear();
+      return false;
+    }
     if (!opencv_->setActivation(layer)) return false;
     activation_ = layer;
-    return !activation_.empty();
+    return true;
+  }
+
+  void read_upsampling(std::shared_ptr<UpsamplingHandOver> hand_over) override {
+    hand_overs_.push_back(std::move(hand_over));
   }
 
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
@@ -79,7 +94,14 @@ class ElementwiseSumLayer final : public OpenCvBackedLayer<cv::dnn::EltwiseLayer
     std::vector<cv::Mat> inputs, outputs;
     inputs_arr.getMatVector(inputs);
     outputs_arr.getMatVector(outputs);
-    if (outputs.size() != 1 || !takes(inputs, outputs[0])) {
+    const bool ours = outputs.size() == 1 && takes(inputs, outputs[0]);
+    if (ours && add_upsampled(inputs, outputs[0])) return;
+    for (const auto& hand_over : hand_overs_)  // upsampled into the waiting blobs, as unfused
+      if (hand_over->waiting()) {
+        upsample_nearest(hand_over->source, hand_over->target);
+        *hand_over = UpsamplingHandOver();
+      }
+    if (!ours) {
       opencv_->forward(inputs_arr, outputs_arr, internals_arr);
       return;
     }
@@ -101,6 +123,54 @@ class ElementwiseSumLayer final : public OpenCvBackedLayer<cv::dnn::EltwiseLayer
   }
 
  private:
+  // out = a + up(b) where of two inputs the one at `b` is an upsampling's waiting output (its
+  // input the hand-over's source) and out does not lie over that source: each source row is
+  // widened once into a row of this thread and added to the ky output rows it makes. False, with
+  // nothing written, where that is not so.
+  bool add_upsampled(const std::vector<cv::Mat>& inputs, cv::Mat& out) {
+    if (inputs.size() != 2 || hand_overs_.empty()) return false;
+    UpsamplingHandOver* hand_over = nullptr;
+    int upsampled = -1;
+    for (const auto& h : hand_overs_)
+      for (int i = 0; i < 2; ++i)
+        if (h->waiting() && inputs[i].data == h->target.data) {
+          if (hand_over) return false;  // both inputs waiting
+          hand_over = h.get();
+          upsampled = i;
+        }
+    if (!hand_over) return false;
+    const cv::Mat& source = hand_over->source;
+    if (!upsamples_by_powers_of_two(source, out) || overlaps(source, out)) return false;
+    const cv::Mat& other = inputs[1 - upsampled];
+    const int channels = out.size[1], h = source.size[2], w = source.size[3];
+    const int ky = out.size[2] / h, kx = out.size[3] / w, ow = out.size[3];
+    const std::size_t plane = std::size_t(out.size[2]) * ow;
+    const cv::dnn::ActivationLayer* activation = activation_.get();
+    cv::parallel_for_(cv::Range(0, out.size[0] * channels), [&](const cv::Range& range) {
+      std::vector<float> row(ow);
+      for (int p = range.start; p < range.end; ++p) {
+        const int image = p / channels, channel = p % channels;
+        const float* src = source.ptr<float>(image) + std::size_t(channel) * h * w;
+        const float* a = other.ptr<float>(image) + channel * plane;
+        float* dst = out.ptr<float>(image) + channel * plane;
+        for (int y = 0; y < h; ++y) {
+          repeat_columns(src + std::size_t(y) * w, w, kx, row.data());
+          for (int r = 0; r < ky; ++r) {
+            const std::size_t at = (std::size_t(y) * ky + r) * ow;
+            add(a + at, row.data(), dst + at, ow);  // a + b == b + a: OpenCV's floats either way
+          }
+        }
+        if (activation) activation->forwardSlice(dst, dst, int(plane), plane, channel, channel + 1);
+      }
+    });
+    *hand_over = UpsamplingHandOver();
+    return true;
+  }
+
+  static bool overlaps(const cv::Mat& a, const cv::Mat& b) {
+    return a.datastart < b.dataend && b.datastart < a.dataend;
+  }
+
   static bool takes(const std::vector<cv::Mat>& inputs, const cv::Mat& out) {
     if (inputs.size() < 2 || !planes_contiguous(out)) return false;
     for (const cv::Mat& in : inputs)
@@ -109,6 +179,7 @@ class ElementwiseSumLayer final : public OpenCvBackedLayer<cv::dnn::EltwiseLayer
   }
 
   cv::Ptr<cv::dnn::ActivationLayer> activation_;
+  std::vector<std::shared_ptr<UpsamplingHandOver>> hand_overs_;
 };
 
 }  // namespace

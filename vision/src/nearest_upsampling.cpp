@@ -5,18 +5,22 @@
 
 #include <algorithm>
 #include <cstring>
+#include <memory>
 #include <utility>
 #include <vector>
 
 #include "dense_layers.hpp"
+#include "fusion_order.hpp"
 #include "opencv_backed_layer.hpp"
+#include "upsampling_hand_over.hpp"
 
 namespace keyfleet::vision {
 namespace {
 
 bool power_of_two(int k) { return k > 0 && (k & (k - 1)) == 0; }
 
-// dst[x * k + j] = src[x] for x < n, j < k.
+}  // namespace
+
 void repeat_columns(const float* src, int n, int k, float* dst) {
   int x = 0;
 #if CV_SIMD128
@@ -39,13 +43,46 @@ void repeat_columns(const float* src, int n, int k, float* dst) {
   for (; x < n; ++x) std::fill(dst + std::size_t(x) * k, dst + std::size_t(x + 1) * k, src[x]);
 }
 
+bool upsamples_by_powers_of_two(const cv::Mat& in, const cv::Mat& out) {
+  if (in.dims != 4 || out.dims != 4 || in.type() != CV_32F || out.type() != CV_32F ||
+      !in.isContinuous() || in.size[0] != out.size[0] || in.size[1] != out.size[1] ||
+      in.size[2] <= 0 || in.size[3] <= 0 || out.step[3] != sizeof(float) ||
+      out.step[2] != out.step[3] * std::size_t(out.size[3]) ||
+      out.step[1] != out.step[2] * std::size_t(out.size[2]))
+    return false;
+  return out.size[2] % in.size[2] == 0 && out.size[3] % in.size[3] == 0 &&
+         power_of_two(out.size[2] / in.size[2]) && power_of_two(out.size[3] / in.size[3]);
+}
+
+void upsample_nearest(const cv::Mat& in, cv::Mat& out) {
+  const int channels = in.size[1], h = in.size[2], w = in.size[3];
+  const int ky = out.size[2] / h, kx = out.size[3] / w, ow = out.size[3];
+  cv::parallel_for_(cv::Range(0, in.size[0] * channels), [&](const cv::Range& range) {
+    for (int p = range.start; p < range.end; ++p) {
+      // Images apart: the output may be a slice of a concatenation's channels.
+      const int image = p / channels, channel = p % channels;
+      const float* src = in.ptr<float>(image) + std::size_t(channel) * h * w;
+      float* dst = out.ptr<float>(image) + std::size_t(channel) * out.size[2] * ow;
+      for (int y = 0; y < h; ++y) {
+        float* row = dst + std::size_t(y) * ky * ow;
+        repeat_columns(src + std::size_t(y) * w, w, kx, row);
+        for (int r = 1; r < ky; ++r)
+          std::memcpy(row + std::size_t(r) * ow, row, sizeof(float) * std::size_t(ow));
+      }
+    }
+  });
+}
+
+namespace {
+
 // ONNX Resize in "nearest" mode (asymmetric coordinates, floor), which OpenCV 4.6 computes one
 // element at a time with a float product and a conversion each (PP-OCR's detector has six, its
 // neck's upsamplings by 2, 4 and 8; 1.9 ms of a 320x256 pass on an AMD EPYC). Where the output's
 // sides are the input's times powers of two, source (y, x) of output (y, x) is (y / ky, x / kx)
 // exactly, as in OpenCV's arithmetic: each input row is widened once and copied ky times.
 // Any other geometry (and every other mode) runs the OpenCV layer this one holds, which also
-// gives the shapes.
+// gives the shapes. Where its only reader is a sum stand-in that runs right after it, it hands
+// that sum its input instead (upsampling_hand_over.hpp).
 class NearestUpsamplingLayer final : public OpenCvBackedLayer<cv::dnn::Layer> {
  public:
   NearestUpsamplingLayer(const cv::dnn::LayerParams& params, cv::Ptr<cv::dnn::Layer> opencv)
@@ -57,6 +94,28 @@ class NearestUpsamplingLayer final : public OpenCvBackedLayer<cv::dnn::Layer> {
            !params.get<bool>("half_pixel_centers", false);
   }
 
+  // OpenCV offers the layer that alone reads this one's output: a sum stand-in running right
+  // after it takes the hand-over. Nothing is fused in OpenCV's sense (both layers keep their
+  // blobs and their turns), so this returns false either way.
+  bool tryFuse(cv::Ptr<cv::dnn::Layer>& top) override {
+    auto* reader = dynamic_cast<UpsamplingReader*>(top.get());
+    if (reader && order_.runs_next(*this, *top)) {
+      hand_over_ = std::make_shared<UpsamplingHandOver>();
+      reader->read_upsampling(hand_over_);
+      type = "KeyfleetNearestUpsamplingIntoSum";
+    }
+    return false;
+  }
+
+  // OpenCV undoes its fusions (an empty layer) before it fuses again: so is the hand-over.
+  bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
+    if (layer.empty()) {
+      hand_over_.reset();
+      type = "KeyfleetNearestUpsampling";
+    }
+    return false;
+  }
+
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
                cv::OutputArrayOfArrays internals_arr) override {
     std::vector<cv::Mat> inputs, outputs;
@@ -64,40 +123,20 @@ class NearestUpsamplingLayer final : public OpenCvBackedLayer<cv::dnn::Layer> {
     outputs_arr.getMatVector(outputs);
     const cv::Mat& in = inputs.at(0);
     cv::Mat& out = outputs.at(0);
-    if (!takes(in, out)) {
+    if (!upsamples_by_powers_of_two(in, out)) {
       opencv_->forward(inputs_arr, outputs_arr, internals_arr);
       return;
     }
-    const int channels = in.size[1], h = in.size[2], w = in.size[3];
-    const int ky = out.size[2] / h, kx = out.size[3] / w, ow = out.size[3];
-    const int planes = in.size[0] * channels;
-    cv::parallel_for_(cv::Range(0, planes), [&](const cv::Range& range) {
-      for (int p = range.start; p < range.end; ++p) {
-        // Images apart: the output may be a slice of a concatenation's channels.
-        const int image = p / channels, channel = p % channels;
-        const float* src = in.ptr<float>(image) + std::size_t(channel) * h * w;
-        float* dst = out.ptr<float>(image) + std::size_t(channel) * out.size[2] * ow;
-        for (int y = 0; y < h; ++y) {
-          float* row = dst + std::size_t(y) * ky * ow;
-          repeat_columns(src + std::size_t(y) * w, w, kx, row);
-          for (int r = 1; r < ky; ++r)
-            std::memcpy(row + std::size_t(r) * ow, row, sizeof(float) * std::size_t(ow));
-        }
-      }
-    });
+    if (hand_over_) {
+      *hand_over_ = {in, out};
+      return;
+    }
+    upsample_nearest(in, out);
   }
 
  private:
-  static bool takes(const cv::Mat& in, const cv::Mat& out) {
-    if (in.dims != 4 || out.dims != 4 || in.type() != CV_32F || out.type() != CV_32F ||
-        !in.isContinuous() || in.size[0] != out.size[0] || in.size[1] != out.size[1] ||
-        in.size[2] <= 0 || in.size[3] <= 0 || out.step[3] != sizeof(float) ||
-        out.step[2] != out.step[3] * std::size_t(out.size[3]) ||
-        out.step[1] != out.step[2] * std::size_t(out.size[2]))
-      return false;
-    return out.size[2] % in.size[2] == 0 && out.size[3] % in.size[3] == 0 &&
-           power_of_two(out.size[2] / in.size[2]) && power_of_two(out.size[3] / in.size[3]);
-  }
+  FusionOrder order_;  // the sum runs right after this layer
+  std::shared_ptr<UpsamplingHandOver> hand_over_;
 };
 
 }  // namespace

@@ -1,0 +1,39 @@
+#pragma once
+// A nearest upsampling whose output only an element-wise sum reads, where the sum runs right after
+// it (PP-OCR's FPN: a + up(b) three times, the last over 96 x 120 x 160 at 640x480): the
+// upsampling stand-in leaves its output unwritten and hands the sum stand-in its input, and the
+// sum adds each widened input row straight into its output rows. The same floats; the upsampled
+// map (7.4 MB at 640x480) is neither written nor read back. The sum checks the hand-over against
+// its inputs on every pass and, where it cannot add that way (another geometry, three inputs, its
+// output over the upsampling's input), upsamples into the waiting blob first, as unfused.
+// Internal to keyfleet_vision (nearest_upsampling.cpp, elementwise_sum.cpp).
+#include <opencv2/core.hpp>
+
+#include <memory>
+
+namespace keyfleet::vision {
+
+struct UpsamplingHandOver {
+  cv::Mat source;  // the upsampling's input (a header on OpenCV's blob)
+  cv::Mat target;  // its output blob, left unwritten; empty when nothing waits
+  bool waiting() const { return !target.empty(); }
+};
+
+// The sum stand-in's side: an upsampling that runs right before it and feeds only it.
+class UpsamplingReader {
+ public:
+  virtual ~UpsamplingReader() = default;
+  virtual void read_upsampling(std::shared_ptr<UpsamplingHandOver> hand_over) = 0;
+};
+
+// dst[x * k + j] = src[x] for x < n, j < k.
+void repeat_columns(const float* src, int n, int k, float* dst);
+
+// Whether `out` is `in` upsampled by powers of two in each direction: 4-D float blobs of the same
+// images and channels, `in` continuous, each of `out`'s planes contiguous.
+bool upsamples_by_powers_of_two(const cv::Mat& in, const cv::Mat& out);
+
+// out = in upsampled (upsamples_by_powers_of_two(in, out) holds).
+void upsample_nearest(const cv::Mat& in, cv::Mat& out);
+
+}  // namespace keyfleet::vision
