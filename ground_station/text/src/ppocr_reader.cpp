@@ -14,7 +14,8 @@ namespace {
 
 // The recogniser's input widths (converted files ppocr_rec[_latin]_w<W>.onnx): a line goes to the
 // narrowest that holds it at height 48, and its time is about linear in that width. Every 32
-// columns up to 256 (half of a fleet's lines fit 128): docs/results/2026-11-29-recogniser-widths.md.
+// columns up to 256 (half of a fleet's lines fit 128):
+// docs/results/2026-11-29-recogniser-widths.md.
 constexpr int kRecogniserWidths[] = {96, 128, 160, 192, 224, 256, 320, 640};
 
 // The detector sizes scripts/fetch_ppocr.sh converts, which "auto" chooses among: a keyframe's
