@@ -21,25 +21,44 @@ bool power_of_two(int k) { return k > 0 && (k & (k - 1)) == 0; }
 
 }  // namespace
 
-void repeat_columns(const float* src, int n, int k, float* dst) {
+namespace {
+
+// repeat_columns for k == K over whole vectors of src: the columns done. K is a constant so that
+// the K stores are stores (with k at run time GCC made them a memcpy call every four columns).
+template <int K>
+int repeat_vectors(const float* src, int n, float* dst) {
   int x = 0;
 #if CV_SIMD128
   constexpr int kLanes = cv::v_float32x4::nlanes;
-  if (k == 2 || k == 4 || k == 8) {
-    for (; x + kLanes <= n; x += kLanes) {
-      cv::v_float32x4 v[8];
-      v[0] = cv::v_load(src + x);
-      for (int have = 1; have < k; have *= 2)  // each lane twice, again
-        for (int i = have - 1; i >= 0; --i) {
-          cv::v_float32x4 lo, hi;
-          cv::v_zip(v[i], v[i], lo, hi);
-          v[2 * i] = lo;
-          v[2 * i + 1] = hi;
-        }
-      for (int i = 0; i < k; ++i) cv::v_store(dst + std::size_t(x) * k + i * kLanes, v[i]);
-    }
+  for (; x + kLanes <= n; x += kLanes) {
+    cv::v_float32x4 v[K];
+    v[0] = cv::v_load(src + x);
+    for (int have = 1; have < K; have *= 2)  // each lane twice, again
+      for (int i = have - 1; i >= 0; --i) {
+        cv::v_float32x4 lo, hi;
+        cv::v_zip(v[i], v[i], lo, hi);
+        v[2 * i] = lo;
+        v[2 * i + 1] = hi;
+      }
+    for (int i = 0; i < K; ++i) cv::v_store(dst + std::size_t(x) * K + i * kLanes, v[i]);
   }
+#else
+  (void)src, (void)n, (void)dst;
 #endif
+  return x;
+}
+
+}  // namespace
+
+void repeat_columns(const float* src, int n, int k, float* dst) {
+  int x = 0;
+  switch (k) {
+    case 1: std::copy_n(src, n, dst); return;
+    case 2: x = repeat_vectors<2>(src, n, dst); break;
+    case 4: x = repeat_vectors<4>(src, n, dst); break;
+    case 8: x = repeat_vectors<8>(src, n, dst); break;
+    default: break;
+  }
   for (; x < n; ++x) std::fill(dst + std::size_t(x) * k, dst + std::size_t(x + 1) * k, src[x]);
 }
 
