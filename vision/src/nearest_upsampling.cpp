@@ -19,10 +19,6 @@ namespace {
 
 bool power_of_two(int k) { return k > 0 && (k & (k - 1)) == 0; }
 
-}  // namespace
-
-namespace {
-
 // repeat_columns for k == K over whole vectors of src: the columns done. K is a constant so that
 // the K stores are stores (with k at run time GCC made them a memcpy call every four columns).
 template <int K>
