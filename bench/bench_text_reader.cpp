@@ -8,7 +8,8 @@
 //    with the station's default (the wide 1x1 convolutions in int8, analysis.text.ppocr_int8)
 //    and in float (ppocr_float); the recogniser in both (int8:1 and int8:0). Where a pass of the
 //    detector at 640x480 and of the recogniser at width 160 spends its time, by layer type
-//    (BM_PpocrLayerTypes: counters in ms).
+//    (BM_PpocrLayerTypes: counters in ms; with KEYFLEET_LAYERS=1 in the environment each layer of
+//    its last pass too, with its input and output shapes).
 // Cases whose models (scripts/fetch_ppocr.sh) or data (KEYFLEET_DATA) are missing are skipped
 // with the reason. Prints figures; never pass/fail.
 // The recogniser's crops of one keyframe are read one at a time: OpenCV 4.6 cannot batch them.
@@ -324,6 +325,22 @@ void BM_PpocrLayerTypes(benchmark::State& state) {
   }
   for (const auto& [type, ms] : ms_by_type)
     if (ms > 0) state.counters[type] = ms / double(state.iterations());
+  if (std::getenv("KEYFLEET_LAYERS")) {  // each layer of the last pass, with its shapes
+    const cv::dnn::MatShape input_shape(shape, shape + 4);
+    for (std::size_t i = 0; i < ticks.size(); ++i) {
+      std::vector<cv::dnn::MatShape> ins, outs;
+      net.getLayerShapes(input_shape, int(i) + 1, ins, outs);
+      const auto text = [](const std::vector<cv::dnn::MatShape>& s) {
+        std::string out;
+        for (int v : s.empty() ? cv::dnn::MatShape{} : s[0])
+          out += (out.empty() ? "" : "x") + std::to_string(v);
+        return out;
+      };
+      const cv::Ptr<cv::dnn::Layer> layer = net.getLayer(int(i) + 1);
+      std::printf("%-36s %-34s %7.3f ms  %s -> %s\n", layer->name.c_str(), layer->type.c_str(),
+                  ticks[i] * 1e3 / cv::getTickFrequency(), text(ins).c_str(), text(outs).c_str());
+    }
+  }
   state.SetLabel(detector ? "detector 640x480, ms by layer type" : "recogniser w160, ms by type");
 }
 

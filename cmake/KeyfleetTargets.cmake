@@ -18,7 +18,9 @@ function(keyfleet_add_gtest name)
   endif()
   add_executable(${name} ${ARG_SOURCES})
   keyfleet_set_warnings(${name})
-  target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest_main)
+  # Tests read and write image files with OpenCV's codecs themselves (the libraries load them
+  # through the plugin of keyfleet/common/opencv_io.hpp).
+  target_link_libraries(${name} PRIVATE ${ARG_LIBS} opencv_imgcodecs GTest::gtest_main)
   include(GoogleTest)
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 120)

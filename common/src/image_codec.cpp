@@ -1,9 +1,10 @@
 #include "keyfleet/common/image_codec.hpp"
 
-#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgcodecs.hpp>  // the flags only: the codecs are image_files()'s
 
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/jpeg_turbo.hpp"
+#include "keyfleet/common/opencv_io.hpp"
 
 namespace keyfleet {
 
@@ -19,7 +20,8 @@ std::vector<std::uint8_t> JpegCodec::encode(const cv::Mat& image) const {
 std::vector<std::uint8_t> JpegCodec::encode_at_quality(const cv::Mat& image, int quality) const {
   std::vector<std::uint8_t> bytes;
   if (encode_jpeg_bgr(image, quality, bytes)) return bytes;  // BGR: no RGB copy on the way
-  cv::imencode(".jpg", image, bytes, {cv::IMWRITE_JPEG_QUALITY, quality});
+  if (!image_files().encode(".jpg", image, {cv::IMWRITE_JPEG_QUALITY, quality}, bytes))
+    bytes.clear();
   return bytes;
 }
 
@@ -38,9 +40,12 @@ DecodeResult JpegCodec::decode(const std::vector<std::uint8_t>& bytes) const {
   // claimed size is the stored one.
   if (decode_jpeg_bgr(bytes.data(), bytes.size(), result.image)) return result;
   try {
-    result.image = cv::imdecode(bytes, cv::IMREAD_COLOR | cv::IMREAD_IGNORE_ORIENTATION);
+    result.image = image_files().decode(bytes, cv::IMREAD_COLOR | cv::IMREAD_IGNORE_ORIENTATION);
   } catch (const cv::Exception& e) {
     result.error = std::string("JPEG decoder failed: ") + e.what();
+    return result;
+  } catch (const StartupError& e) {
+    result.error = std::string("no decoder for this JPEG: ") + e.what();
     return result;
   }
   if (result.image.empty()) result.error = "corrupt JPEG (decoder returned no image)";

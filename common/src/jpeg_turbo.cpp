@@ -1,6 +1,6 @@
 #include "keyfleet/common/jpeg_turbo.hpp"
 
-#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgcodecs.hpp>  // the flags only: the codecs are image_files()'s
 
 #include <csetjmp>
 #include <cstdio>
@@ -10,6 +10,8 @@
 
 // jpeglib.h needs FILE and size_t declared first.
 #include <jpeglib.h>
+
+#include "keyfleet/common/opencv_io.hpp"
 
 namespace keyfleet {
 namespace {
@@ -123,7 +125,7 @@ cv::Mat read_image_bgr(const std::string& path, std::vector<std::uint8_t>& bytes
   cv::Mat image;
   if (decode_jpeg_bgr(bytes.data(), bytes.size(), image, reduce, full_size)) return image;
   try {
-    image = cv::imdecode(bytes, cv::IMREAD_COLOR);
+    image = image_files().decode(bytes, cv::IMREAD_COLOR);
   } catch (const cv::Exception&) {
     image.release();
   }

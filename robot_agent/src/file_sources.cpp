@@ -1,6 +1,4 @@
 // Frame sources that read recordings: a folder of images, or a video file.
-#include <opencv2/videoio.hpp>
-
 #include <algorithm>
 #include <filesystem>
 #include <set>
@@ -8,6 +6,7 @@
 #include "keyfleet/agent/frame_source.hpp"
 #include "keyfleet/common/error.hpp"
 #include "keyfleet/common/jpeg_turbo.hpp"
+#include "keyfleet/common/opencv_io.hpp"
 
 namespace keyfleet::agent {
 namespace {
@@ -80,16 +79,16 @@ class VideoFileSource final : public FrameSource {
       : config_(config), logger_(std::move(logger)) {
     if (!fs::is_regular_file(config.path))
       throw StartupError("source.path: video file '" + config.path + "' does not exist");
-    if (!capture_.open(config.path))
-      throw StartupError("source.path: OpenCV cannot open video '" + config.path + "'");
-    const double file_fps = capture_.get(cv::CAP_PROP_FPS);
+    video_ = video_files().open(config.path);
+    if (!video_) throw StartupError("source.path: OpenCV cannot open video '" + config.path + "'");
+    const double file_fps = video_->fps();
     fps_ = file_fps > 0 && file_fps < 1000 ? file_fps : config.fps;
   }
 
   std::optional<Frame> next() override {
     if (config_.max_frames && emitted_ >= config_.max_frames) return std::nullopt;
     cv::Mat image;
-    if (!capture_.read(image) || image.empty()) return std::nullopt;
+    if (!video_->read(image)) return std::nullopt;
     Frame frame{emitted_, stream_time_ns(emitted_, fps_), image, std::nullopt};
     ++emitted_;
     return frame;
@@ -101,7 +100,7 @@ class VideoFileSource final : public FrameSource {
  private:
   SourceConfig config_;
   Logger logger_;
-  cv::VideoCapture capture_;
+  std::unique_ptr<VideoReader> video_;
   double fps_ = 30;
   std::uint64_t emitted_ = 0;
 };
