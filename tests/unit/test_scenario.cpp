@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <set>
@@ -256,6 +257,42 @@ TEST(ScenarioReader, MalformedTruthNamesFileAndLine) {
     EXPECT_NE(std::string(e.what()).find("truth.jsonl:1"), std::string::npos) << e.what();
   }
   EXPECT_THROW(read_scenario(dir.path().string()), std::runtime_error);
+}
+
+// Integer fields take JSON integers that fit: a float where an integer belongs (8.3e19 as a
+// timestamp once made the reader cast out of range, undefined behaviour that fuzz_scenario_truth
+// found), one too large, or a string is a clear error naming the file and line.
+TEST(ScenarioReader, IntegerFieldsRefuseFloatsAndOutOfRangeValues) {
+  FrameTruth f;
+  f.image = "frames/000000.jpg";
+  const nlohmann::json good = nlohmann::json::parse(frame_truth_line(f));
+  const std::vector<std::pair<std::string, nlohmann::json>> bad = {
+      {"timestamp_ns", 8.28571e19},
+      {"timestamp_ns", 1.5},
+      {"index", -1},
+      {"place", 4294967296LL},
+      {"place", "3"},
+      {"timestamp_ns", nlohmann::json::parse("18446744073709551615")}};
+  for (const auto& [key, value] : bad) {
+    nlohmann::json line = good;
+    line[key] = value;
+    test::TempDir dir;
+    std::ofstream(dir.path() / "truth.jsonl") << good.dump() << "\n" << line.dump() << "\n";
+    try {
+      read_frame_truth(dir.path().string());
+      ADD_FAILURE() << key << " = " << value.dump() << " was accepted";
+    } catch (const std::runtime_error& e) {
+      const std::string message = e.what();
+      EXPECT_NE(message.find("truth.jsonl:2"), std::string::npos) << message;
+      EXPECT_NE(message.find("integer"), std::string::npos) << message;
+    }
+  }
+  nlohmann::json largest = good;
+  largest["timestamp_ns"] = std::numeric_limits<std::int64_t>::max();
+  test::TempDir dir;
+  std::ofstream(dir.path() / "truth.jsonl") << largest.dump() << "\n";
+  EXPECT_EQ(read_frame_truth(dir.path().string()).at(0).timestamp_ns,
+            std::numeric_limits<std::int64_t>::max());
 }
 
 // A scenario file's robot ids and folders become paths: one that climbs out of the run or
