@@ -3,13 +3,12 @@
 #include <nlohmann/json.hpp>
 
 #include <cctype>
-#include <cstdint>
 #include <filesystem>
 #include <fstream>
-#include <limits>
 #include <stdexcept>
 
 #include "keyfleet/common/config.hpp"
+#include "keyfleet/common/json_integer.hpp"
 
 namespace keyfleet::scenario {
 namespace {
@@ -24,27 +23,6 @@ bool is_plain_folder_name(const std::string& name) {
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.'))
       return false;
   return true;
-}
-
-// An integer field: a JSON integer within T's range. nlohmann converts whatever number is there
-// (a float of 8.3e19 into an int64: undefined behaviour, found by fuzz_scenario_truth); this
-// refuses anything but an integer that fits.
-template <class T>
-T integer(const json& j) {
-  using Limits = std::numeric_limits<T>;
-  if (j.is_number_unsigned()) {
-    const std::uint64_t v = j.get<std::uint64_t>();
-    if (v <= static_cast<std::uint64_t>(Limits::max())) return static_cast<T>(v);
-  } else if (j.is_number_integer()) {
-    const std::int64_t v = j.get<std::int64_t>();
-    if (v >= 0 ? static_cast<std::uint64_t>(v) <= static_cast<std::uint64_t>(Limits::max())
-               : Limits::is_signed && v >= static_cast<std::int64_t>(Limits::min()))
-      return static_cast<T>(v);
-  } else {
-    throw std::runtime_error(std::string("expected an integer, found ") + j.type_name() +
-                             (j.is_number() ? " " + j.dump() : ""));
-  }
-  throw std::runtime_error("integer " + j.dump() + " out of range");
 }
 
 const char* const kVisibilityNames[] = {"full", "cut", "occluded"};
@@ -76,7 +54,7 @@ json to_json(const WordInView& w) {
 
 WordInView word_from(const json& j) {
   WordInView w;
-  w.sign_id = integer<int>(j.at("sign"));
+  w.sign_id = json_integer<int>(j.at("sign"));
   w.text = j.at("text");
   w.legible = j.at("legible");
   for (std::size_t i = 0; i < 4; ++i)
@@ -85,14 +63,14 @@ WordInView word_from(const json& j) {
   w.box_x0 = box.at(0), w.box_y0 = box.at(1), w.box_x1 = box.at(2), w.box_y1 = box.at(3);
   w.visibility = visibility_from(j.at("visibility"));
   w.visible_fraction = j.at("visible_fraction");
-  w.place_id = integer<int>(j.at("place"));
+  w.place_id = json_integer<int>(j.at("place"));
   return w;
 }
 
 FrameTruth frame_from(const json& j) {
   FrameTruth f;
-  f.index = integer<std::uint64_t>(j.at("index"));
-  f.timestamp_ns = integer<std::int64_t>(j.at("timestamp_ns"));
+  f.index = json_integer<std::uint64_t>(j.at("index"));
+  f.timestamp_ns = json_integer<std::int64_t>(j.at("timestamp_ns"));
   f.image = j.at("image");
   f.camera_to_world = pose_from(j.at("camera_to_world"));
   f.motion_blur_px = j.at("motion_blur_px");
@@ -101,7 +79,7 @@ FrameTruth frame_from(const json& j) {
   f.exposure_gain = j.at("exposure_gain");
   f.exposure_event = j.at("exposure_event");
   f.mean_level = j.at("mean_level");
-  f.place_id = integer<int>(j.at("place"));
+  f.place_id = json_integer<int>(j.at("place"));
   f.street_position_m = j.at("street_position_m");
   for (const auto& w : j.at("words")) f.words.push_back(word_from(w));
   return f;
@@ -184,22 +162,22 @@ Scenario read_scenario(const std::string& scenario_dir) {
     if (doc.at("format") != "keyfleet-scenario")
       throw std::runtime_error("not a keyfleet scenario");
     Scenario s;
-    s.format_version = integer<int>(doc.at("version"));
+    s.format_version = json_integer<int>(doc.at("version"));
     if (s.format_version != kFormatVersion)
       throw std::runtime_error("format version " + std::to_string(s.format_version) +
                                ", this build reads " + std::to_string(kFormatVersion));
     s.name = doc.at("name");
-    s.seed = integer<std::uint64_t>(doc.at("seed"));
+    s.seed = json_integer<std::uint64_t>(doc.at("seed"));
     s.street_length_m = doc.at("street").at("length_m");
     s.street_width_m = doc.at("street").at("width_m");
     s.place_length_m = doc.at("street").at("place_length_m");
     s.config_yaml = doc.value("config_yaml", "");
     for (const auto& j : doc.at("signs")) {
       SignTruth sign;
-      sign.id = integer<int>(j.at("id"));
+      sign.id = json_integer<int>(j.at("id"));
       sign.text = j.at("text");
       sign.legible = j.at("legible");
-      sign.place_id = integer<int>(j.at("place"));
+      sign.place_id = json_integer<int>(j.at("place"));
       sign.side = j.at("side");
       for (std::size_t i = 0; i < 4; ++i) {
         const auto& c = j.at("word_corners").at(i);
@@ -210,13 +188,13 @@ Scenario read_scenario(const std::string& scenario_dir) {
     for (const auto& j : doc.at("drones")) {
       DroneInfo d;
       d.robot_id = j.at("robot_id");
-      d.day = integer<int>(j.at("day"));
+      d.day = json_integer<int>(j.at("day"));
       d.folder = j.at("folder");
-      d.frames = integer<std::uint64_t>(j.at("frames"));
+      d.frames = json_integer<std::uint64_t>(j.at("frames"));
       d.fps = j.at("fps");
       const auto& c = j.at("camera");
-      d.camera = {integer<int>(c.at("width")),
-                  integer<int>(c.at("height")),
+      d.camera = {json_integer<int>(c.at("width")),
+                  json_integer<int>(c.at("height")),
                   c.at("fx"),
                   c.at("fy"),
                   c.at("cx"),

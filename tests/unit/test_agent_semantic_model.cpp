@@ -165,9 +165,9 @@ TEST_F(SegmenterDescription, ReadsStdAndTheDbSettingsOfAProbabilityOutput) {
 
 TEST_F(SegmenterDescription, RefusesBadValuesNamingTheFile) {
   for (const std::string extra :
-       {R"(, "std_bgr": [0.229, 0, 0.225])", R"(, "max_batch": -1)",
-        R"(, "std_bgr": [0.229, -1, 0.225])", R"(, "std_bgr": [0.229, 1e999, 0.225])",
-        R"(, "output": "boxes")",
+       {R"(, "std_bgr": [0.229, 0, 0.225])", R"(, "max_batch": -1)", R"(, "max_batch": 1e30)",
+        R"(, "max_batch": 2.5)", R"(, "max_batch": "4")", R"(, "std_bgr": [0.229, -1, 0.225])",
+        R"(, "std_bgr": [0.229, 1e999, 0.225])", R"(, "output": "boxes")",
         R"(, "output": "text_probability", "db": {"binary_threshold": 1.5})",
         R"(, "output": "text_probability", "db": {"box_threshold": -0.1})",
         R"(, "output": "text_probability", "db": {"unclip_ratio": -1})",

@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/common/json_integer.hpp"
 #include "keyfleet/vision/model_files.hpp"
 
 namespace keyfleet::vision {
@@ -24,11 +25,12 @@ PlaceDescriberInfo read_place_describer_info(const std::string& model_path) {
     if (j.at("format") != "keyfleet-place-descriptor")
       throw std::runtime_error("not a keyfleet place descriptor");
     PlaceDescriberInfo info;
-    info.input_size = {j.at("input_width").get<int>(), j.at("input_height").get<int>()};
+    info.input_size = {json_integer<int>(j.at("input_width")),
+                       json_integer<int>(j.at("input_height"))};
     info.scale = j.at("scale");
     const auto& mean = j.at("mean_bgr");
     info.mean_bgr = cv::Scalar(mean.at(0), mean.at(1), mean.at(2));
-    info.dimensions = j.at("dimensions");
+    info.dimensions = json_integer<int>(j.at("dimensions"));
     info.description = j.value("description", "");
     if (info.input_size.width <= 0 || info.input_size.height <= 0)
       throw std::runtime_error("input size must be positive");

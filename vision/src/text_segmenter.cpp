@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/common/json_integer.hpp"
 #include "keyfleet/vision/model_files.hpp"
 
 namespace keyfleet::vision {
@@ -43,9 +44,10 @@ SegmenterInfo read_segmenter_info(const std::string& model_path) {
     if (j.at("format") != "keyfleet-segmenter")
       throw std::runtime_error("not a keyfleet segmenter");
     SegmenterInfo info;
-    info.input_size = {j.at("input_width").get<int>(), j.at("input_height").get<int>()};
-    info.size_multiple = j.value("size_multiple", 1);
-    info.max_batch = j.value("max_batch", 0);
+    info.input_size = {json_integer<int>(j.at("input_width")),
+                       json_integer<int>(j.at("input_height"))};
+    info.size_multiple = json_integer_or(j, "size_multiple", 1);
+    info.max_batch = json_integer_or(j, "max_batch", 0);
     if (info.max_batch < 0) throw std::runtime_error("max_batch must be >= 0");
     info.scale = j.at("scale");
     const auto& mean = j.at("mean_bgr");
