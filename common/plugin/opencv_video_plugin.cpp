@@ -2,6 +2,8 @@
 // (keyfleet/common/opencv_io.hpp), so that only the processes that read video files load it.
 #include <opencv2/videoio.hpp>
 
+#include <utility>
+
 #include "keyfleet/common/opencv_io.hpp"
 
 namespace {

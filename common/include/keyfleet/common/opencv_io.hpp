@@ -1,11 +1,10 @@
 #pragma once
 // OpenCV's image files and video files (its imgcodecs and videoio libraries) behind two plugins,
 // each loaded the first time something needs it. Debian's two libraries bring about 220 more
-// shared libraries (FFmpeg, GStreamer, GDAL, GDCM, ...) into any process that links them, and
-// loading those cost each robot agent about 0.1 s of CPU at its start
-// (docs/results/2026-11-29-agent-start.md), where an agent reading JPEG frames needs neither:
-// JPEGs go through libjpeg (jpeg_turbo.hpp). libkeyfleet_opencv_images.so links imgcodecs,
-// libkeyfleet_opencv_video.so videoio (and imgcodecs, which videoio needs).
+// shared libraries (FFmpeg, GStreamer, GDAL, GDCM, ...) into any process that links them, whose
+// loading was most of the robot agent's start (docs/results/2026-11-29-agent-start.md), where an
+// agent reading JPEG frames needs neither: JPEGs go through libjpeg (jpeg_turbo.hpp).
+// libkeyfleet_opencv_images.so links imgcodecs, libkeyfleet_opencv_video.so videoio.
 #include <opencv2/core.hpp>
 
 #include <cstdint>
