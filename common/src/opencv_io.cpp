@@ -2,6 +2,7 @@
 
 #include <dlfcn.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <mutex>
@@ -21,8 +22,11 @@ std::vector<std::string> plugin_places(const Plugin& plugin) {
 #ifdef KEYFLEET_BUILD_PLUGIN_DIR
   folders.emplace_back(KEYFLEET_BUILD_PLUGIN_DIR);
 #endif
-  std::vector<std::string> files;
-  for (const fs::path& folder : folders) files.push_back((folder / plugin.file).string());
+  std::vector<std::string> files;  // each once (the build's folder is often <bin>/../lib too)
+  for (const fs::path& folder : folders) {
+    const std::string file = (folder.lexically_normal() / plugin.file).string();
+    if (std::find(files.begin(), files.end(), file) == files.end()) files.push_back(file);
+  }
   return files;
 }
 

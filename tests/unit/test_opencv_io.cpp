@@ -8,6 +8,7 @@
 #include <opencv2/videoio.hpp>
 
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <memory>
 #include <string>
@@ -93,6 +94,16 @@ TEST(OpenCvIo, SaysWhereItLookedWhenAPluginCannotBeLoaded) {
   }
   // Where it is, it loads.
   EXPECT_NE(load_plugin(kVideoPlugin, {absent, video_plugin.back()}), nullptr);
+}
+
+TEST(OpenCvIo, LooksInThePluginDirFirstAndInEachPlaceOnce) {
+  ::setenv("KEYFLEET_PLUGIN_DIR", "/opt/elsewhere/", 1);
+  const std::vector<std::string> places = plugin_places(kImagesPlugin);
+  ::unsetenv("KEYFLEET_PLUGIN_DIR");
+  ASSERT_GE(places.size(), 2u);
+  EXPECT_EQ(places.front(), std::string("/opt/elsewhere/") + kImagesPlugin.file);
+  for (std::size_t i = 0; i < places.size(); ++i)
+    for (std::size_t j = i + 1; j < places.size(); ++j) EXPECT_NE(places[i], places[j]);
 }
 
 // The agent's start: Debian's imgcodecs and videoio bring about 220 shared libraries that an
