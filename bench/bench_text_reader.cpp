@@ -327,15 +327,15 @@ void BM_PpocrLayerTypes(benchmark::State& state) {
     if (ms > 0) state.counters[type] = ms / double(state.iterations());
   if (std::getenv("KEYFLEET_LAYERS")) {  // each layer of the last pass, with its shapes
     const cv::dnn::MatShape input_shape(shape, shape + 4);
+    const auto text = [](const std::vector<cv::dnn::MatShape>& s) {  // the first blob's shape
+      std::string out;
+      for (int v : s.empty() ? cv::dnn::MatShape{} : s[0])
+        out += (out.empty() ? "" : "x") + std::to_string(v);
+      return out;
+    };
     for (std::size_t i = 0; i < ticks.size(); ++i) {
       std::vector<cv::dnn::MatShape> ins, outs;
       net.getLayerShapes(input_shape, int(i) + 1, ins, outs);
-      const auto text = [](const std::vector<cv::dnn::MatShape>& s) {
-        std::string out;
-        for (int v : s.empty() ? cv::dnn::MatShape{} : s[0])
-          out += (out.empty() ? "" : "x") + std::to_string(v);
-        return out;
-      };
       const cv::Ptr<cv::dnn::Layer> layer = net.getLayer(int(i) + 1);
       std::printf("%-36s %-34s %7.3f ms  %s -> %s\n", layer->name.c_str(), layer->type.c_str(),
                   ticks[i] * 1e3 / cv::getTickFrequency(), text(ins).c_str(), text(outs).c_str());
