@@ -167,16 +167,19 @@ void BM_PpocrDetect(benchmark::State& state) {
   state.counters["lines"] = double(lines);
 }
 
-// The detector's network pass alone, with the float stand-in layers the detector uses.
+// The detector's network pass alone, with the float stand-in layers the detector uses; the DB
+// head's upsampled levels taken at their own size or (upsampled_taps 0) written out first.
 void BM_PpocrDetectorNet(benchmark::State& state) {
   auto c = detector_case(state);
   if (!c) return;
   cv::Size fitted;
   float scale = 1;
   const cv::Mat blob = detector_blob(c->image, c->detector->input_size(), fitted, scale);
+  keyfleet::vision::DnnLayers layers = keyfleet::vision::DnnLayers::in_float();
+  layers.upsampled_taps = state.range(3) != 0;
   cv::dnn::Net net;
   {
-    const keyfleet::vision::DnnLayersScope stand_ins(keyfleet::vision::DnnLayers::in_float());
+    const keyfleet::vision::DnnLayersScope stand_ins(layers);
     net = keyfleet::vision::load_onnx_network(c->model, "ppocr detector");
     net.setInput(blob);
     net.forward();  // the first pass creates the layers and allocates
@@ -371,8 +374,9 @@ BENCHMARK(BM_PpocrDetect)
     ->Apply(timed)
     ->Iterations(3);
 BENCHMARK(BM_PpocrDetectorNet)
-    ->ArgNames({"det640x480_0_det1280x736_1", "photo1280x720_0_resized640x480_1", "threads"})
-    ->ArgsProduct({{0, 1}, {1}, {1, 2}})
+    ->ArgNames({"det640x480_0_det1280x736_1", "photo1280x720_0_resized640x480_1", "threads",
+                "upsampled_taps"})
+    ->ArgsProduct({{0, 1}, {1}, {1, 2}, {0, 1}})
     ->Apply(timed)
     ->Iterations(3);
 BENCHMARK(BM_PpocrDbPostprocess)

@@ -20,6 +20,8 @@
 #include "pointwise_int8.hpp"
 #include "strided_convolution.hpp"
 #include "subpixel_deconvolution.hpp"
+#include "upsampled_concatenation.hpp"
+#include "upsampling_hand_over.hpp"
 
 namespace keyfleet::vision {
 namespace {
@@ -411,20 +413,51 @@ class Int8PointwiseLayer final : public SameSizeLayer<Int8PointwiseConvolution> 
 };
 
 // Dense 3x3 convolution, stride 1, padding 1, one group, by nine taps of the matrix product; an
-// activation after it is applied as each plane is done.
-class Convolution3x3Layer final : public SameSizeLayer<Convolution3x3> {
+// activation after it is applied as each plane is done. Where it alone reads a concatenation into
+// which upsamplings by 4 or more hand their slices over unwritten (upsampling_hand_over.hpp), it
+// computes their share at the small size (upsampled_concatenation.hpp) in float.
+class Convolution3x3Layer final : public SameSizeLayer<Convolution3x3>, public SliceReader {
  public:
   explicit Convolution3x3Layer(const cv::dnn::LayerParams& params)
-      : SameSizeLayer(params, "KeyfleetConvolution3x3") {}
+      : SameSizeLayer(params, "KeyfleetConvolution3x3") {
+    if (scope_layers().upsampled_taps && !kernel_.bfloat16())
+      concatenation_ = std::make_unique<UpsampledConcatenation>(
+          params.blobs[0], params.blobs.size() > 1 ? params.blobs[1] : cv::Mat());
+  }
 
   static bool handles(const cv::dnn::LayerParams& params,
                       const cv::dnn::BaseConvolutionLayer& geometry) {
     return same_size_convolution(params, geometry, 3);
   }
 
+  void read_upsampled_slice(std::shared_ptr<UpsamplingHandOver> hand_over) override {
+    if (concatenation_) concatenation_->add(std::move(hand_over));
+  }
+
+  // An empty layer: OpenCV undoes its fusions (before it fuses again), hand-overs included.
+  bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
+    if (layer.empty() && concatenation_) concatenation_->clear();
+    return SameSizeLayer::setActivation(layer);
+  }
+
+  void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
+               cv::OutputArrayOfArrays internals_arr) override {
+    if (concatenation_ && concatenation_->waiting()) {
+      LayerIo io = float_layer_io(inputs_arr, outputs_arr, false);
+      if (io.out.size[0] == 1 &&
+          concatenation_->run(io.in, io.out.ptr<float>(0), activations_.get()))
+        return;
+      concatenation_->write_waiting();
+    }
+    SameSizeLayer::forward(inputs_arr, outputs_arr, internals_arr);
+  }
+
   void run(const float* in, int height, int width, float* out) override {
     kernel_.run(in, height, width, out, activations_.get());
   }
+
+ private:
+  std::unique_ptr<UpsampledConcatenation> concatenation_;  // float only
 };
 
 // Dense k x k convolution (k odd, padding k / 2 on every side), stride 2, one group, at most 4

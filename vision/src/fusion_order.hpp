@@ -25,10 +25,14 @@ class FusionOrder {
   // Whether `next` runs right after `self` and the layers it runs; false where no watched network
   // holds `self` and nothing was decided for `next` before.
   bool runs_next(const cv::dnn::Layer& self, const cv::dnn::Layer& next);
+  // The one layer that reads `layer`'s outputs in the network the scope watches, else null (none
+  // or several, or no watched network holds it); what was found is kept for later set-ups.
+  cv::Ptr<cv::dnn::Layer> sole_reader(const cv::dnn::Layer& layer);
 
  private:
   std::vector<std::string> inside_;
-  std::map<std::string, bool> decided_;  // by the next layer's name
+  std::map<std::string, bool> decided_;                     // by the next layer's name
+  std::map<std::string, cv::Ptr<cv::dnn::Layer>> readers_;  // by the layer's name
 };
 
 }  // namespace keyfleet::vision

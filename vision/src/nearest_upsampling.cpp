@@ -96,8 +96,9 @@ namespace {
 // sides are the input's times powers of two, source (y, x) of output (y, x) is (y / ky, x / kx)
 // exactly, as in OpenCV's arithmetic: each input row is widened once and copied ky times.
 // Any other geometry (and every other mode) runs the OpenCV layer this one holds, which also
-// gives the shapes. Where its only reader is a sum stand-in that runs right after it, it hands
-// that sum its input instead (upsampling_hand_over.hpp).
+// gives the shapes. Where its only reader is a sum stand-in that runs right after it, or a
+// concatenation that only a 3x3 convolution stand-in reads, it hands that layer its input instead
+// (upsampling_hand_over.hpp).
 class NearestUpsamplingLayer final : public OpenCvBackedLayer<cv::dnn::Layer> {
  public:
   NearestUpsamplingLayer(const cv::dnn::LayerParams& params, cv::Ptr<cv::dnn::Layer> opencv)
@@ -110,22 +111,48 @@ class NearestUpsamplingLayer final : public OpenCvBackedLayer<cv::dnn::Layer> {
   }
 
   // OpenCV offers the layer that alone reads this one's output: a sum stand-in running right
-  // after it takes the hand-over. Nothing is fused in OpenCV's sense (both layers keep their
-  // blobs and their turns), so this returns false either way.
+  // after it takes the hand-over; so does a 3x3 convolution stand-in that alone reads the
+  // concatenation this one writes a slice of, where this one upsamples by kTapsFromFactor or more
+  // each way. Nothing is fused in OpenCV's sense (the layers keep their blobs and their turns), so
+  // this returns false either way.
   bool tryFuse(cv::Ptr<cv::dnn::Layer>& top) override {
     auto* reader = dynamic_cast<UpsamplingReader*>(top.get());
     if (reader && order_.runs_next(*this, *top)) {
       hand_over_ = std::make_shared<UpsamplingHandOver>();
       reader->read_upsampling(hand_over_);
       type = "KeyfleetNearestUpsamplingIntoSum";
+    } else if (top && top->type == "Concat" && ky_ >= kTapsFromFactor && kx_ >= kTapsFromFactor) {
+      auto* convolution = dynamic_cast<SliceReader*>(order_.sole_reader(*top).get());
+      if (convolution) {
+        slice_hand_over_ = std::make_shared<UpsamplingHandOver>();
+        convolution->read_upsampled_slice(slice_hand_over_);
+        type = "KeyfleetNearestUpsamplingIntoConvolution";
+      }
     }
     return false;
   }
 
-  // OpenCV undoes its fusions (an empty layer) before it fuses again: so is the hand-over.
+  // The factors of this set-up (OpenCV finalises a layer before it fuses).
+  void finalize(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr) override {
+    OpenCvBackedLayer::finalize(inputs_arr, outputs_arr);
+    std::vector<cv::Mat> inputs, outputs;
+    inputs_arr.getMatVector(inputs);
+    outputs_arr.getMatVector(outputs);
+    ky_ = kx_ = 0;
+    if (inputs.size() == 1 && outputs.size() == 1 && inputs[0].dims == 4 && outputs[0].dims == 4 &&
+        inputs[0].size[2] > 0 && inputs[0].size[3] > 0 &&
+        outputs[0].size[2] % inputs[0].size[2] == 0 &&
+        outputs[0].size[3] % inputs[0].size[3] == 0) {
+      ky_ = outputs[0].size[2] / inputs[0].size[2];
+      kx_ = outputs[0].size[3] / inputs[0].size[3];
+    }
+  }
+
+  // OpenCV undoes its fusions (an empty layer) before it fuses again: so are the hand-overs.
   bool setActivation(const cv::Ptr<cv::dnn::ActivationLayer>& layer) override {
     if (layer.empty()) {
       hand_over_.reset();
+      slice_hand_over_.reset();
       type = "KeyfleetNearestUpsampling";
     }
     return false;
@@ -146,12 +173,25 @@ class NearestUpsamplingLayer final : public OpenCvBackedLayer<cv::dnn::Layer> {
       *hand_over_ = {in, out};
       return;
     }
+    // A slice of the concatenation's output (OpenCV fused the concatenation: nothing copies the
+    // slice before the convolution reads it), of one image, at a factor the convolution takes.
+    const bool slice =
+        out.datastart != out.data || out.dataend != out.data + out.total() * out.elemSize();
+    if (slice_hand_over_ && slice && in.size[0] == 1 &&
+        out.size[2] >= kTapsFromFactor * in.size[2] &&
+        out.size[3] >= kTapsFromFactor * in.size[3]) {
+      in.copyTo(slice_hand_over_->source);  // OpenCV may lay another blob over `in` before then
+      slice_hand_over_->target = out;
+      return;
+    }
     upsample_nearest(in, out);
   }
 
  private:
   FusionOrder order_;  // the sum runs right after this layer
   std::shared_ptr<UpsamplingHandOver> hand_over_;
+  std::shared_ptr<UpsamplingHandOver> slice_hand_over_;  // to a convolution
+  int ky_ = 0, kx_ = 0;                                  // this set-up's factors
 };
 
 }  // namespace

@@ -6,7 +6,14 @@
 // map (7.4 MB at 640x480) is neither written nor read back. The sum checks the hand-over against
 // its inputs on every pass and, where it cannot add that way (another geometry, three inputs, its
 // output over the upsampling's input), upsamples into the waiting blob first, as unfused.
-// Internal to keyfleet_vision (nearest_upsampling.cpp, elementwise_sum.cpp).
+// The same for a 3x3 convolution stand-in that alone reads a concatenation of channels (OpenCV
+// writes each input of a concatenation straight into its slice of the output, so the convolution
+// reads the slices in place): an upsampling by kTapsFromFactor or more each way into that
+// concatenation leaves its slice unwritten and hands the convolution a copy of its input, whose
+// share the convolution computes at that size (upsampled_taps.hpp). The convolution checks each
+// hand-over against its input on every pass and writes any it cannot take into its slice first.
+// Internal to keyfleet_vision (nearest_upsampling.cpp, elementwise_sum.cpp,
+// upsampled_concatenation.cpp).
 #include <opencv2/core.hpp>
 
 #include <memory>
@@ -14,7 +21,7 @@
 namespace keyfleet::vision {
 
 struct UpsamplingHandOver {
-  cv::Mat source;  // the upsampling's input (a header on OpenCV's blob)
+  cv::Mat source;  // the upsampling's input (a header on OpenCV's blob; a copy for a slice)
   cv::Mat target;  // its output blob, left unwritten; empty when nothing waits
   bool waiting() const { return !target.empty(); }
 };
@@ -24,6 +31,18 @@ class UpsamplingReader {
  public:
   virtual ~UpsamplingReader() = default;
   virtual void read_upsampling(std::shared_ptr<UpsamplingHandOver> hand_over) = 0;
+};
+
+// The smallest factor (each way) whose slice an upsampling hands a convolution: at 2 the nine taps'
+// products at the small size cost about what Winograd's F(4x4, 3x3) does at the large one (9/4
+// against 36/16 multiplications an output pixel), and the rows' sums come on top.
+constexpr int kTapsFromFactor = 4;
+
+// The convolution's side: it alone reads the concatenation the upsampling writes a slice of.
+class SliceReader {
+ public:
+  virtual ~SliceReader() = default;
+  virtual void read_upsampled_slice(std::shared_ptr<UpsamplingHandOver> hand_over) = 0;
 };
 
 // dst[x * k + j] = src[x] for x < n, j < k.

@@ -70,6 +70,10 @@ struct DnnLayers {
   // A float 1x1 convolution and the depthwise convolution that alone reads its output, run a band
   // of rows at a time so that output stays in cache (banded_depthwise.hpp): the same sums.
   bool banded_depthwise = true;
+  // A float 3x3 convolution that alone reads a concatenation of nearest upsamplings by 4 or more
+  // each way (PP-OCR's DB head) computes their share at the small size, the upsampled slices
+  // never written (upsampled_taps.hpp): the same sums in another order (float rounding).
+  bool upsampled_taps = true;
   static DnnLayers opencv() {
     return {false, false, false, false, false, false, false,
             false, false, false, false, false, false, false};
