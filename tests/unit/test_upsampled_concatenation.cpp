@@ -3,7 +3,8 @@
 // outputs to float rounding at the head's geometry, with factors that differ by direction,
 // sources one row or column high, an activation fused in; and where it cannot take them (two
 // images, the channels written in place not one run or fewer than 8, the concatenation read by
-// another layer too, set up again outside the scope or without fusion) still OpenCV's outputs.
+// another layer too, the convolution in bfloat16, set up again outside the scope or without
+// fusion) still OpenCV's outputs.
 #include <gtest/gtest.h>
 
 #include <opencv2/dnn/shape_utils.hpp>
@@ -216,6 +217,30 @@ TEST(UpsampledConcatenation, NotWhereAnotherLayerReadsTheConcatenation) {
   layout.second_reader = true;
   EXPECT_EQ(expect_as_opencv(layout, 1, 16, 16, "second reader"),
             std::vector<std::string>{"KeyfleetNearestUpsampling"});
+}
+
+TEST(UpsampledConcatenation, AConvolutionInBfloat16TakesNoSlices) {
+  // Where the CPU multiplies in bfloat16 the 3x3 layer does so and leaves the upsamplings to
+  // write their slices (outputs within bfloat16's rounding); elsewhere it stays in float and
+  // takes them.
+  Layout layout;
+  layout.parts = std::vector<Part>{{24, 8, 8}, {24, 4, 4}, {24, 2, 2}, {24, 1, 1}};
+  DnnLayers layers = under_test();
+  layers.bfloat16_products = true;
+  cv::RNG rng(75), weights_a(76), weights_b(76);
+  ConcatenationNetwork ours(layout, weights_a), theirs(layout, weights_b);
+  const std::vector<cv::Mat> in = ours.inputs(rng, 1, 48, 64);
+  const Outcome got = ours.run(in, layers);
+  const Outcome expected = theirs.run(in, std::nullopt);
+  ASSERT_EQ(cv::dnn::shape(got.out), cv::dnn::shape(expected.out));
+  const double spread = std::max(1.0, cv::norm(expected.out, cv::NORM_INF));
+  if (bfloat16_products_supported()) {
+    EXPECT_EQ(got.resize_types, std::vector<std::string>(3, "KeyfleetNearestUpsampling"));
+    EXPECT_LT(cv::norm(got.out, expected.out, cv::NORM_INF), 0.02 * spread);
+  } else {
+    EXPECT_EQ(got.resize_types, kHanded);
+    EXPECT_LT(cv::norm(got.out, expected.out, cv::NORM_INF), 2e-5 * spread);
+  }
 }
 
 TEST(UpsampledConcatenation, SetUpAgainOutsideTheScopeAndWithoutFusion) {

@@ -430,8 +430,10 @@ class Convolution3x3Layer final : public SameSizeLayer<Convolution3x3>, public S
     return same_size_convolution(params, geometry, 3);
   }
 
-  void read_upsampled_slice(std::shared_ptr<UpsamplingHandOver> hand_over) override {
-    if (concatenation_) concatenation_->add(std::move(hand_over));
+  bool read_upsampled_slice(std::shared_ptr<UpsamplingHandOver> hand_over) override {
+    if (!concatenation_) return false;
+    concatenation_->add(std::move(hand_over));
+    return true;
   }
 
   // An empty layer: OpenCV undoes its fusions (before it fuses again), hand-overs included.

@@ -123,9 +123,9 @@ class NearestUpsamplingLayer final : public OpenCvBackedLayer<cv::dnn::Layer> {
       type = "KeyfleetNearestUpsamplingIntoSum";
     } else if (top && top->type == "Concat" && ky_ >= kTapsFromFactor && kx_ >= kTapsFromFactor) {
       auto* convolution = dynamic_cast<SliceReader*>(order_.sole_reader(*top).get());
-      if (convolution) {
-        slice_hand_over_ = std::make_shared<UpsamplingHandOver>();
-        convolution->read_upsampled_slice(slice_hand_over_);
+      auto hand_over = std::make_shared<UpsamplingHandOver>();
+      if (convolution && convolution->read_upsampled_slice(hand_over)) {
+        slice_hand_over_ = std::move(hand_over);
         type = "KeyfleetNearestUpsamplingIntoConvolution";
       }
     }

@@ -42,7 +42,8 @@ constexpr int kTapsFromFactor = 4;
 class SliceReader {
  public:
   virtual ~SliceReader() = default;
-  virtual void read_upsampled_slice(std::shared_ptr<UpsamplingHandOver> hand_over) = 0;
+  // Whether it takes the hand-over (a convolution in bfloat16 does not).
+  virtual bool read_upsampled_slice(std::shared_ptr<UpsamplingHandOver> hand_over) = 0;
 };
 
 // dst[x * k + j] = src[x] for x < n, j < k.
