@@ -2,8 +2,8 @@
 // takes the upsamplings by 4 or more at their own size (upsampled_concatenation.hpp): OpenCV's
 // outputs to float rounding at the head's geometry, with factors that differ by direction,
 // sources one row or column high, an activation fused in; and where it cannot take them (two
-// images, the channels written in place not one run or fewer than 8, the concatenation read by
-// another layer too, the convolution in bfloat16, set up again outside the scope or without
+// images, the channels written in place not one run or fewer than 8, 4 outputs, the concatenation
+// read by another layer too, the convolution in bfloat16, set up again outside the scope or without
 // fusion) still OpenCV's outputs.
 #include <gtest/gtest.h>
 
@@ -199,7 +199,7 @@ TEST(UpsampledConcatenation, FactorsByDirectionAndSourcesOneRowHigh) {
 }
 
 TEST(UpsampledConcatenation, WhatItCannotTakeIsWrittenFirst) {
-  // Two images; the channels written in place split in two runs; only 6 of them.
+  // Two images; the channels written in place split in two runs; only 6 of them; 4 outputs.
   Layout two_images;
   two_images.parts = std::vector<Part>{{8, 4, 4}, {16, 1, 1}};
   expect_as_opencv(two_images, 2, 16, 16, "two images");
@@ -209,6 +209,10 @@ TEST(UpsampledConcatenation, WhatItCannotTakeIsWrittenFirst) {
   Layout few;
   few.parts = std::vector<Part>{{8, 4, 4}, {6, 1, 1}};
   expect_as_opencv(few, 1, 16, 16, "six in place");
+  Layout narrow;
+  narrow.parts = std::vector<Part>{{8, 4, 4}, {16, 1, 1}};
+  narrow.outputs = 4;
+  expect_as_opencv(narrow, 1, 16, 16, "four outputs");
 }
 
 TEST(UpsampledConcatenation, NotWhereAnotherLayerReadsTheConcatenation) {

@@ -46,7 +46,9 @@ Winograd3x3& UpsampledConcatenation::winograd_for(int first, int channels) {
 bool UpsampledConcatenation::run(const cv::Mat& in, float* out,
                                  const cv::dnn::ActivationLayer* activation) {
   const int inputs = weights_.size[1], outputs = weights_.size[0];
-  if (in.dims != 4 || in.size[0] != 1 || in.size[1] != inputs || !in.isContinuous()) return false;
+  if (in.dims != 4 || in.size[0] != 1 || in.size[1] != inputs || !in.isContinuous() ||
+      outputs < 8)  // Winograd's product where it pays, as Convolution3x3 has it
+    return false;
   const int h = in.size[2], w = in.size[3];
   const std::size_t plane = std::size_t(h) * w, plane_bytes = plane * sizeof(float);
   const auto* begin = in.data;

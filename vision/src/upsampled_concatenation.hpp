@@ -31,8 +31,8 @@ class UpsampledConcatenation {
 
   // out (one image, outputs planes of in's size, contiguous) from in (one image, 4-D, continuous,
   // the waiting slices unwritten), `activation` (may be null) applied to each plane. False, with
-  // nothing written, where the hand-overs are not slices of `in` this can take or the channels
-  // written in place are not one run of 8 or more.
+  // nothing written, where the hand-overs are not slices of `in` this can take, the channels
+  // written in place are not one run of 8 or more, or there are fewer than 8 outputs.
   bool run(const cv::Mat& in, float* out, const cv::dnn::ActivationLayer* activation);
 
   // Writes every waiting slice (as unfused), for a pass run() does not take.
