@@ -94,7 +94,8 @@ for round in $(seq 1 "$rounds"); do
         echo "fleet_ab: generating the scenario ($most drones) with the first run"
         "$out/$s/bin/keyfleet" "${args[@]}" >"$out/scenario.log" 2>&1 ||
           { echo "fleet_ab: error: the first run failed: $out/scenario.log" >&2; exit 1; }
-        scenario=$(ls -d "$out"/runs/scenario/fleet-*/scenario | head -1)
+        generated=("$out"/runs/scenario/fleet-*/scenario)
+        scenario=${generated[0]}
         [ -d "$scenario" ] || { echo "fleet_ab: error: no scenario in $out/runs/scenario" >&2; exit 1; }
         args=(bench fleet "$mission" --drones "$n" --frames 600 --mode realtime --out "$dest")
       fi
