@@ -4,9 +4,11 @@
 # same generated scenario for every run, the builds alternating run by run so that both see the
 # host's same minutes. Prints each run and, for each N, the medians of new / base run by run.
 #   scripts/fleet_ab.sh BASE [--drones "6 8"] [--rounds 3] [--avx2-only] [--out DIR]
-# BASE: a git revision, built into DIR/base with its own scripts/build.sh --for demo (its own
-# models too), or a folder holding bin/{keyfleet,robot_agent,ground_station} (and share/, else
-# this build's models are used). New: this checkout, built into $KEYFLEET_BUILD_DIR (build/).
+# BASE: a git revision, checked out as a worktree in DIR/base-src and built into DIR/base-build
+# with its own scripts/build.sh --for demo (its own models too; `git worktree remove
+# DIR/base-src` when done), or a folder holding bin/{keyfleet,robot_agent,ground_station} (and
+# share/, else this build's models are used). New: this checkout, built into $KEYFLEET_BUILD_DIR
+# (build/).
 # --avx2-only turns OpenCV's AVX-512 dispatch off (OPENCV_CPU_DISABLE): on a host with AVX-512,
 # an approximation of an AVX2-only CPU (docs/evaluation.md). Nothing else should run meanwhile.
 # About a minute a run (N = 8) after the builds: 2 builds x rounds x sizes runs.
