@@ -381,11 +381,14 @@ TEST(PpocrReaderWithModels, DetectorBuiltOnFirstUseFindsWhatOneBuiltAtOnceFinds)
 TEST(PpocrReaderWithModels, StandInLayersGiveOpenCvsOutputs) {
   KEYFLEET_REQUIRE_PPOCR_MODELS();
   // The detectors at both sizes: at 640x480 four of their layer pairs run fused a band of rows
-  // at a time (the first layer's, two 1x1 layers' and the DB head's), at 1280x736 nine; at both,
-  // the FPN's levels upsampled by 8 and 4 reach the DB head's 3x3 layer at their own size.
+  // at a time (the first layer's, two 1x1 layers' and the DB head's), at 1280x736 nine; at
+  // every size, the agent's included, the FPN's levels upsampled by 8 and 4 reach the DB head's
+  // 3x3 layer at their own size.
   for (const auto& [file, height, width, fused, handed] :
        {std::tuple{"ppocr_det_640x480.onnx", 480, 640, 4, 2},
         std::tuple{"ppocr_det_1280x736.onnx", 736, 1280, 9, 2},
+        std::tuple{"ppocr_det_288x224.onnx", 224, 288, 0, 2},
+        std::tuple{"../ppocr_det_256x192_tuned.onnx", 192, 256, 0, 2},
         std::tuple{"ppocr_rec_w320.onnx", 48, 320, 0, 0}}) {
     const int shape[] = {1, 3, height, width};
     cv::Mat input(4, shape, CV_32F);
