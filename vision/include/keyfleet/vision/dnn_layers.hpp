@@ -24,7 +24,9 @@
 //   computes it one element at a time; this one in SIMD where power is 1.
 // - nearest-neighbour Resize by powers of two (PP-OCR's FPN upsamplings): OpenCV 4.6 computes
 //   each element's source with a float product and a conversion; this one widens each input row
-//   once and copies it.
+//   once and copies it. Where a float 3x3 convolution alone reads a concatenation it writes a
+//   slice of (PP-OCR's DB head), an upsampling by 4 or more leaves the slice unwritten and the
+//   convolution computes that share at the small size (upsampled_taps).
 // - inner product with constant weights (PP-OCR's recogniser's last MatMul) as the same matrix
 //   product, and softmax over the last axis with OpenCV's vectorised exp (dense_layers.hpp).
 // Each stand-in convolution takes the whole chain of activations OpenCV fuses into it (PP-OCR's
