@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Issue 32's fleet figures for two builds side by side: `keyfleet bench fleet` on the demo mission
 # (DDS-Security, `strategy: full`, density 4; 600-frame flights at 30 frames/s, real time), the
-# same generated scenario for every run, the builds alternating run by run so that both see the
-# host's same minutes. Prints each run and, for each N, the medians of new / base run by run.
+# same generated scenario for every run, the builds alternating run by run (base first in odd
+# rounds, new first in even ones) so that both see the host's same minutes. Prints each run and,
+# for each N, the medians of new / base run by run.
 #   scripts/fleet_ab.sh BASE [--drones "6 8"] [--rounds 3] [--avx2-only] [--out DIR]
 # BASE: a git revision, checked out as a worktree in DIR/base-src and built into DIR/base-build
 # with its own scripts/build.sh --for demo (its own models too; `git worktree remove
@@ -35,9 +36,15 @@ while [ $# -gt 0 ]; do
     *) echo "fleet_ab: error: unknown argument '$1'" >&2; echo "$usage" >&2; exit 2 ;;
   esac
 done
-case "$rounds" in ''|*[!0-9]*|0) echo "fleet_ab: error: --rounds must be 1 or more" >&2; exit 2 ;; esac
+case "$rounds" in
+  ''|*[!0-9]*|0) echo "fleet_ab: error: --rounds must be 1 or more" >&2; exit 2 ;;
+esac
 for n in $drones; do
-  case "$n" in ''|*[!0-9]*|0) echo "fleet_ab: error: --drones takes sizes of 1 or more, got '$n'" >&2; exit 2 ;; esac
+  case "$n" in
+    ''|*[!0-9]*|0)
+      echo "fleet_ab: error: --drones takes sizes of 1 or more, got '$n'" >&2
+      exit 2 ;;
+  esac
 done
 mkdir -p "$out"
 out=$(cd "$out" && pwd)
@@ -76,7 +83,8 @@ side new "$build"
 # build folder, which stays where it was built.
 
 if [ "$avx2_only" = 1 ]; then
-  export OPENCV_CPU_DISABLE=AVX512F,AVX512-SKX,AVX512-ICL,AVX512-COMMON,AVX512BW,AVX512CD,AVX512DQ,AVX512VL
+  OPENCV_CPU_DISABLE=AVX512F,AVX512-SKX,AVX512-ICL,AVX512-COMMON,AVX512BW,AVX512CD
+  export OPENCV_CPU_DISABLE=$OPENCV_CPU_DISABLE,AVX512DQ,AVX512VL
 fi
 mission="$root/configs/demo_mission.yaml"
 most=0
@@ -85,8 +93,12 @@ for n in $drones; do [ "$n" -gt "$most" ] && most=$n; done
 # The first run generates the scenario (most drones, 600 frames); every run flies that one.
 scenario=""
 for round in $(seq 1 "$rounds"); do
+  # Base first in odd rounds, new first in even ones: a host whose load drifts over the minutes
+  # favours neither side.
+  order="base new"
+  [ $((round % 2)) = 0 ] && order="new base"
   for n in $drones; do
-    for s in base new; do
+    for s in $order; do
       dest="$out/runs/$s-n$n-r$round"
       rm -rf "$dest"
       args=(bench fleet "$mission" --drones "$n" --frames 600 --mode realtime --out "$dest")
@@ -98,7 +110,8 @@ for round in $(seq 1 "$rounds"); do
           { echo "fleet_ab: error: the first run failed: $out/scenario.log" >&2; exit 1; }
         generated=("$out"/runs/scenario/fleet-*/scenario)
         scenario=${generated[0]}
-        [ -d "$scenario" ] || { echo "fleet_ab: error: no scenario in $out/runs/scenario" >&2; exit 1; }
+        [ -d "$scenario" ] ||
+          { echo "fleet_ab: error: no scenario in $out/runs/scenario" >&2; exit 1; }
         args=(bench fleet "$mission" --drones "$n" --frames 600 --mode realtime --out "$dest")
       fi
       echo "fleet_ab: round $round of $rounds, N = $n, $s"
