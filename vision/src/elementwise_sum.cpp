@@ -15,10 +15,9 @@
 #include "upsampling_hand_over.hpp"
 
 namespace keyfleet::vision {
-namespace {
 
-// dst = a + b, n floats (dst may be a or b).
-void add(const float* a, const float* b, float* dst, int n) {
+// upsampling_hand_over.hpp: the sums here and the upsampled taps' rows.
+void add_floats(const float* a, const float* b, float* dst, int n) {
   int i = 0;
 #if CV_SIMD
   constexpr int kLanes = cv::v_float32::nlanes;
@@ -31,6 +30,8 @@ void add(const float* a, const float* b, float* dst, int n) {
 #endif
   for (; i < n; ++i) dst[i] = a[i] + b[i];
 }
+
+namespace {
 
 // Whether m is a 4-D float blob whose planes are each contiguous (its images may lie apart: an
 // output may be a slice of a concatenation's channels).
@@ -114,9 +115,10 @@ class ElementwiseSumLayer final : public OpenCvBackedLayer<cv::dnn::EltwiseLayer
         const int image = p / channels, channel = p % channels;
         const std::size_t offset = std::size_t(channel) * plane;
         float* dst = out.ptr<float>(image) + offset;
-        add(inputs[0].ptr<float>(image) + offset, inputs[1].ptr<float>(image) + offset, dst, plane);
+        add_floats(inputs[0].ptr<float>(image) + offset, inputs[1].ptr<float>(image) + offset, dst,
+                   plane);
         for (std::size_t k = 2; k < inputs.size(); ++k)
-          add(dst, inputs[k].ptr<float>(image) + offset, dst, plane);
+          add_floats(dst, inputs[k].ptr<float>(image) + offset, dst, plane);
         if (activation) activation->forwardSlice(dst, dst, plane, plane, channel, channel + 1);
       }
     });
@@ -157,7 +159,8 @@ class ElementwiseSumLayer final : public OpenCvBackedLayer<cv::dnn::EltwiseLayer
           repeat_columns(src + std::size_t(y) * w, w, kx, row.data());
           for (int r = 0; r < ky; ++r) {
             const std::size_t at = (std::size_t(y) * ky + r) * ow;
-            add(a + at, row.data(), dst + at, ow);  // a + b == b + a: OpenCV's floats either way
+            add_floats(a + at, row.data(), dst + at,
+                       ow);  // a + b == b + a: OpenCV's floats either way
           }
         }
         if (activation) activation->forwardSlice(dst, dst, int(plane), plane, channel, channel + 1);

@@ -1,6 +1,5 @@
 #include "upsampled_taps.hpp"
 
-#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/core/utility.hpp>
 
 #include <algorithm>
@@ -12,17 +11,6 @@ namespace keyfleet::vision {
 namespace {
 
 constexpr int kTaps = 9;
-
-// dst += src, n floats.
-void add_into(const float* src, float* dst, int n) {
-  int i = 0;
-#if CV_SIMD
-  constexpr int kLanes = cv::v_float32::nlanes;
-  for (; i + kLanes <= n; i += kLanes)
-    cv::v_store(dst + i, cv::vx_load(dst + i) + cv::vx_load(src + i));
-#endif
-  for (; i < n; ++i) dst[i] += src[i];
-}
 
 enum class RowClass { top, middle, bottom };
 
@@ -97,7 +85,8 @@ void UpsampledTaps::add_to(int output, int ky, int kx, float* plane) const {
         if (dy == 1 && cls == RowClass::bottom) from = sy + 1;
         if (from < 0 || from >= h) continue;  // the convolution's zero border
         for (int dx = -1; dx <= 1; ++dx)
-          add_into(tap(dy, dx) + std::size_t(from) * w, sums.data() + std::size_t(dx + 1) * w, w);
+          add_floats(sums.data() + std::size_t(dx + 1) * w, tap(dy, dx) + std::size_t(from) * w,
+                     sums.data() + std::size_t(dx + 1) * w, w);
       }
       const float* before = sums.data();  // column tap -1
       const float* same = sums.data() + w;
@@ -115,7 +104,10 @@ void UpsampledTaps::add_to(int output, int ky, int kx, float* plane) const {
       int y0 = sy * ky, y1 = y0 + 1;  // top
       if (cls == RowClass::middle) y0 += 1, y1 = sy * ky + ky - 1;
       if (cls == RowClass::bottom) y0 = sy * ky + ky - 1, y1 = y0 + 1;
-      for (int y = y0; y < y1; ++y) add_into(row.data(), plane + std::size_t(y) * width, width);
+      for (int y = y0; y < y1; ++y) {
+        float* out = plane + std::size_t(y) * width;
+        add_floats(out, row.data(), out, width);
+      }
     }
   }
 }

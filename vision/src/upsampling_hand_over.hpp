@@ -46,6 +46,9 @@ class SliceReader {
   virtual bool read_upsampled_slice(std::shared_ptr<UpsamplingHandOver> hand_over) = 0;
 };
 
+// dst = a + b, n floats in SIMD (dst may be a or b).
+void add_floats(const float* a, const float* b, float* dst, int n);
+
 // dst[x * k + j] = src[x] for x < n, j < k.
 void repeat_columns(const float* src, int n, int k, float* dst);
 
