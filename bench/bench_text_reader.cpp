@@ -167,8 +167,9 @@ void BM_PpocrDetect(benchmark::State& state) {
   state.counters["lines"] = double(lines);
 }
 
-// The detector's network pass alone, with the float stand-in layers the detector uses; the DB
-// head's upsampled levels taken at their own size or (upsampled_taps 0) written out first.
+// The detector's network pass alone, with the float stand-in layers the detector uses; the FPN's
+// RSE layers' 1x1 convolutions scaled and summed by the sums after them or (excited_sums 0)
+// written, pooled, scaled and summed layer by layer.
 void BM_PpocrDetectorNet(benchmark::State& state) {
   auto c = detector_case(state);
   if (!c) return;
@@ -176,7 +177,7 @@ void BM_PpocrDetectorNet(benchmark::State& state) {
   float scale = 1;
   const cv::Mat blob = detector_blob(c->image, c->detector->input_size(), fitted, scale);
   keyfleet::vision::DnnLayers layers = keyfleet::vision::DnnLayers::in_float();
-  layers.upsampled_taps = state.range(3) != 0;
+  layers.excited_sums = state.range(3) != 0;
   cv::dnn::Net net;
   {
     const keyfleet::vision::DnnLayersScope stand_ins(layers);
@@ -375,7 +376,7 @@ BENCHMARK(BM_PpocrDetect)
     ->Iterations(3);
 BENCHMARK(BM_PpocrDetectorNet)
     ->ArgNames({"det640x480_0_det1280x736_1", "photo1280x720_0_resized640x480_1", "threads",
-                "upsampled_taps"})
+                "excited_sums"})
     ->ArgsProduct({{0, 1}, {1}, {1, 2}, {0, 1}})
     ->Apply(timed)
     ->Iterations(3);

@@ -383,18 +383,20 @@ TEST(PpocrReaderWithModels, StandInLayersGiveOpenCvsOutputs) {
   // The detectors at both sizes: at 640x480 four of their layer pairs run fused a band of rows
   // at a time (the first layer's, two 1x1 layers' and the DB head's), at 1280x736 nine; at
   // every size, the agent's included, the FPN's levels upsampled by 8 and 4 reach the DB head's
-  // 3x3 layer at their own size.
-  for (const auto& [file, height, width, fused, handed] :
-       {std::tuple{"ppocr_det_640x480.onnx", 480, 640, 4, 2},
-        std::tuple{"ppocr_det_1280x736.onnx", 736, 1280, 9, 2},
-        std::tuple{"ppocr_det_288x224.onnx", 224, 288, 0, 2},
-        std::tuple{"../ppocr_det_256x192_tuned.onnx", 192, 256, 0, 2},
-        std::tuple{"ppocr_rec_w320.onnx", 48, 320, 0, 0}}) {
+  // 3x3 layer at their own size, and three of its four RSE layers' 1x1 convolutions are scaled
+  // and summed by the sums after them (the top level's output has two readers).
+  for (const auto& [file, height, width, fused, handed, excited] :
+       {std::tuple{"ppocr_det_640x480.onnx", 480, 640, 4, 2, 3},
+        std::tuple{"ppocr_det_1280x736.onnx", 736, 1280, 9, 2, 3},
+        std::tuple{"ppocr_det_288x224.onnx", 224, 288, 0, 2, 3},
+        std::tuple{"../ppocr_det_256x192_tuned.onnx", 192, 256, 0, 2, 3},
+        std::tuple{"ppocr_rec_w320.onnx", 48, 320, 0, 0, 0}}) {
     const int shape[] = {1, 3, height, width};
     cv::Mat input(4, shape, CV_32F);
     cv::randu(input, -1, 1);
-    int pairs = 0;   // layers that run the layer after them too
-    int slices = 0;  // upsamplings handed to a convolution
+    int pairs = 0;     // layers that run the layer after them too
+    int slices = 0;    // upsamplings handed to a convolution
+    int scalings = 0;  // channel scalings left to the sum after them
     const auto forward = [&](bool stand_ins) {
       std::optional<vision::DnnLayersScope> scope;
       if (stand_ins) scope.emplace(vision::DnnLayers::in_float());
@@ -406,12 +408,14 @@ TEST(PpocrReaderWithModels, StandInLayersGiveOpenCvsOutputs) {
         pairs += type == "KeyfleetPointwiseDepthwise" || type == "KeyfleetStridedDepthwise" ||
                  type == "KeyfleetSubpixelDeconvolutionPair";
         slices += type == "KeyfleetNearestUpsamplingIntoConvolution";
+        scalings += type == "KeyfleetScaleHandedOver";
       }
       return out;
     };
     const cv::Mat opencv = forward(false), ours = forward(true);
     EXPECT_EQ(pairs, fused) << file;
     EXPECT_EQ(slices, handed) << file;
+    EXPECT_EQ(scalings, excited) << file;
     ASSERT_EQ(opencv.total(), ours.total()) << file;
     EXPECT_LT(cv::norm(opencv, ours, cv::NORM_INF), 1e-4) << file;
   }

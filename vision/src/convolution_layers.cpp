@@ -17,6 +17,7 @@
 #include "fusion_order.hpp"
 #include "layer_io.hpp"
 #include "pointwise_convolution.hpp"
+#include "pointwise_hand_over.hpp"
 #include "pointwise_int8.hpp"
 #include "strided_convolution.hpp"
 #include "subpixel_deconvolution.hpp"
@@ -346,7 +347,7 @@ class DepthwiseFusion {
 class PointwiseLayer final : public SameSizeLayer<PointwiseConvolution> {
  public:
   explicit PointwiseLayer(const cv::dnn::LayerParams& params)
-      : SameSizeLayer(params, "KeyfleetPointwise") {}
+      : SameSizeLayer(params, "KeyfleetPointwise"), may_hand_over_(scope_layers().excited_sums) {}
 
   static bool handles(const cv::dnn::LayerParams& params,
                       const cv::dnn::BaseConvolutionLayer& geometry) {
@@ -365,12 +366,30 @@ class PointwiseLayer final : public SameSizeLayer<PointwiseConvolution> {
     return fusion_.add_activation(layer, activations_, type);
   }
 
+  // Where every reader of its output is a stand-in that takes it (pointwise_hand_over.hpp), the
+  // output is left to them on each pass that allows it (one image, nothing fused into this one).
   void finalize(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays) override {
     fusion_.note_output(inputs_arr, kernel_.output_channels(), [](int side) { return side; });
+    hand_over_.reset();
+    if (may_hand_over_ && kernel_.runs_columns()) {
+      auto hand_over = std::make_shared<PointwiseHandOver>();
+      hand_over->kernel = &kernel_;
+      if (hand_over_to(order_.readers(*this), hand_over)) hand_over_ = std::move(hand_over);
+    }
   }
 
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
                cv::OutputArrayOfArrays internals_arr) override {
+    if (hand_over_) {
+      hand_over_->scales.clear();  // what the last pass left
+      hand_over_->target = cv::Mat();
+      LayerIo io = float_layer_io(inputs_arr, outputs_arr, false);
+      if (io.in.size[0] == 1 && !activations_.get() && !fusion_.fused()) {
+        io.in.copyTo(hand_over_->source);  // OpenCV may lay a later blob over the input
+        hand_over_->target = io.out;
+        return;
+      }
+    }
     if (!fusion_.fused()) {
       SameSizeLayer::forward(inputs_arr, outputs_arr, internals_arr);
       return;
@@ -390,6 +409,9 @@ class PointwiseLayer final : public SameSizeLayer<PointwiseConvolution> {
 
  private:
   DepthwiseFusion fusion_{*this};
+  bool may_hand_over_;
+  FusionOrder order_;  // its readers, found in the watched network
+  std::shared_ptr<PointwiseHandOver> hand_over_;
 };
 
 // The same in 8-bit integers (pointwise_int8.hpp), where the scope asks for it.

@@ -12,9 +12,26 @@
 
 #include "avx2_product.hpp"
 #include "layer_io.hpp"
+#include "pointwise_hand_over.hpp"
 #include "product_operands.hpp"
 
 namespace keyfleet::vision {
+
+float plane_mean(const float* x, int n) {
+  constexpr int kLanes = cv::v_float32::nlanes;
+  cv::v_float32 s0 = cv::vx_setzero_f32(), s1 = s0, s2 = s0, s3 = s0;
+  int i = 0;
+  for (; i + 4 * kLanes <= n; i += 4 * kLanes) {
+    s0 += cv::vx_load(x + i);
+    s1 += cv::vx_load(x + i + kLanes);
+    s2 += cv::vx_load(x + i + 2 * kLanes);
+    s3 += cv::vx_load(x + i + 3 * kLanes);
+  }
+  float sum = cv::v_reduce_sum((s0 + s1) + (s2 + s3));
+  for (; i < n; ++i) sum += x[i];
+  return sum / float(n);
+}
+
 namespace {
 
 int normalised_axis(int axis, int dims) { return axis < 0 ? axis + dims : axis; }
@@ -244,9 +261,10 @@ class SoftmaxLayer final : public cv::dnn::Layer {
   bool log_;
 };
 
-// Global average pooling: each N x C plane's mean (planes of any number of dimensions), summed in
-// four vectors of lanes.
-class GlobalAveragePoolLayer final : public cv::dnn::Layer {
+// Global average pooling: each N x C plane's mean (planes of any number of dimensions). Where its
+// input is a 1x1 convolution's output left unwritten (pointwise_hand_over.hpp), the means come
+// from the convolution's input.
+class GlobalAveragePoolLayer final : public cv::dnn::Layer, public PointwiseReader {
  public:
   explicit GlobalAveragePoolLayer(const cv::dnn::LayerParams& params) {
     setParamsFrom(params);
@@ -268,6 +286,11 @@ class GlobalAveragePoolLayer final : public cv::dnn::Layer {
     return false;
   }
 
+  bool read_pointwise(std::shared_ptr<PointwiseHandOver> hand_over) override {
+    hand_over_ = std::move(hand_over);
+    return true;
+  }
+
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
                cv::OutputArrayOfArrays) override {
     std::vector<cv::Mat> inputs, outputs;
@@ -276,6 +299,13 @@ class GlobalAveragePoolLayer final : public cv::dnn::Layer {
     const cv::Mat& in = inputs.at(0);
     cv::Mat& out = outputs.at(0);
     CV_Assert(in.type() == CV_32F && in.isContinuous() && out.isContinuous() && in.dims >= 3);
+    if (hand_over_ && hand_over_->is(in)) {
+      if (in.size[0] == 1 && int(out.total()) == hand_over_->kernel->output_channels()) {
+        hand_over_->means(out.ptr<float>());
+        return;
+      }
+      hand_over_->write_waiting();
+    }
     const int planes = in.size[0] * in.size[1];
     const int n = planes == 0 ? 0 : int(in.total() / std::size_t(planes));
     if (n == 0) {
@@ -283,23 +313,13 @@ class GlobalAveragePoolLayer final : public cv::dnn::Layer {
       return;
     }
     cv::parallel_for_(cv::Range(0, planes), [&](const cv::Range& range) {
-      constexpr int kLanes = cv::v_float32::nlanes;
-      for (int p = range.start; p < range.end; ++p) {
-        const float* x = in.ptr<float>() + std::size_t(p) * std::size_t(n);
-        cv::v_float32 s0 = cv::vx_setzero_f32(), s1 = s0, s2 = s0, s3 = s0;
-        int i = 0;
-        for (; i + 4 * kLanes <= n; i += 4 * kLanes) {
-          s0 += cv::vx_load(x + i);
-          s1 += cv::vx_load(x + i + kLanes);
-          s2 += cv::vx_load(x + i + 2 * kLanes);
-          s3 += cv::vx_load(x + i + 3 * kLanes);
-        }
-        float sum = cv::v_reduce_sum((s0 + s1) + (s2 + s3));
-        for (; i < n; ++i) sum += x[i];
-        out.ptr<float>()[p] = sum / float(n);
-      }
+      for (int p = range.start; p < range.end; ++p)
+        out.ptr<float>()[p] = plane_mean(in.ptr<float>() + std::size_t(p) * std::size_t(n), n);
     });
   }
+
+ private:
+  std::shared_ptr<PointwiseHandOver> hand_over_;
 };
 
 }  // namespace

@@ -10,7 +10,9 @@
 // runs its general pooling loop; other poolings stay OpenCV's. And nearest-neighbour upsampling
 // by powers of two (nearest_upsampling.cpp; other resizes stay OpenCV's), and the element-wise
 // sum of inputs of one shape (elementwise_sum.cpp; products, maxima and weighted sums stay
-// OpenCV's). Internal to keyfleet_vision.
+// OpenCV's). And the channel scaling x * g of squeeze-and-excitation blocks (channel_scale.cpp),
+// which passes on a 1x1 convolution's hand-over (pointwise_hand_over.hpp). Internal to
+// keyfleet_vision.
 #include <opencv2/dnn.hpp>
 
 namespace keyfleet::vision {
@@ -20,5 +22,9 @@ cv::Ptr<cv::dnn::Layer> create_softmax(cv::dnn::LayerParams& params);
 cv::Ptr<cv::dnn::Layer> create_pooling(cv::dnn::LayerParams& params);
 cv::Ptr<cv::dnn::Layer> create_resize(cv::dnn::LayerParams& params);
 cv::Ptr<cv::dnn::Layer> create_eltwise(cv::dnn::LayerParams& params);
+cv::Ptr<cv::dnn::Layer> create_scale(cv::dnn::LayerParams& params);
+
+// The mean of n > 0 floats, summed in four vectors of lanes.
+float plane_mean(const float* x, int n);
 
 }  // namespace keyfleet::vision

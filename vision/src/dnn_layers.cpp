@@ -197,6 +197,27 @@ DnnLayersScope* DnnLayersScope::current() { return current_scope; }
 
 void DnnLayersScope::watch(const cv::dnn::Net& net) { watched_.push_back(net); }
 
+bool DnnLayersScope::readers(const cv::dnn::Layer& layer,
+                             std::vector<cv::Ptr<cv::dnn::Layer>>& found) {
+  readers_.resize(watched_.size());
+  for (std::size_t i = 0; i < watched_.size(); ++i) {
+    cv::dnn::Net& net = watched_[i];
+    const int id = net.getLayerId(layer.name);
+    if (id < 0 || net.getLayer(id).get() != &layer) continue;
+    auto& index = readers_[i];
+    if (index.empty())
+      for (const cv::String& name : net.getLayerNames()) {
+        const int other = net.getLayerId(name);
+        for (const cv::Ptr<cv::dnn::Layer>& input : net.getLayerInputs(other))
+          index[input.get()].push_back(net.getLayer(other));
+      }
+    const auto it = index.find(&layer);
+    found = it == index.end() ? std::vector<cv::Ptr<cv::dnn::Layer>>() : it->second;
+    return true;
+  }
+  return false;
+}
+
 std::mutex& DnnLayersScope::scope_mutex() {
   static std::mutex mutex;
   return mutex;
@@ -217,7 +238,8 @@ DnnLayersScope::DnnLayersScope(DnnLayers layers) : lock_(scope_mutex()) {
       {layers.vectorised_softmax, {"Softmax", create_softmax}},
       {layers.global_average_pool, {"Pooling", create_pooling}},
       {layers.nearest_upsampling, {"Resize", create_resize}},
-      {layers.vectorised_sum, {"Eltwise", create_eltwise}}};
+      {layers.vectorised_sum, {"Eltwise", create_eltwise}},
+      {layers.excited_sums && layers.pointwise, {"Scale", create_scale}}};
   try {
     for (const auto& [use, layer] : chosen)
       if (use) {

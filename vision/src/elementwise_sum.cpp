@@ -12,6 +12,7 @@
 
 #include "dense_layers.hpp"
 #include "opencv_backed_layer.hpp"
+#include "pointwise_hand_over.hpp"
 #include "upsampling_hand_over.hpp"
 
 namespace keyfleet::vision {
@@ -48,9 +49,12 @@ bool planes_contiguous(const cv::Mat& m) {
 // OpenCV's order ((x0 + x1) + x2 ...: the same floats), then applies a fused activation to the
 // plane. Anything else (products, maxima, coefficients other than 1, inputs of other shapes or
 // channel counts) runs the OpenCV layer this one holds, which also gives the shapes. Of two
-// inputs, one may be an upsampling's that waits for this layer (upsampling_hand_over.hpp).
+// inputs, one may be an upsampling's that waits for this layer (upsampling_hand_over.hpp), and
+// one a scaled 1x1 convolution's (pointwise_hand_over.hpp), which this layer then computes with
+// the other input added as the convolution's epilogue.
 class ElementwiseSumLayer final : public OpenCvBackedLayer<cv::dnn::EltwiseLayer>,
-                                  public UpsamplingReader {
+                                  public UpsamplingReader,
+                                  public PointwiseReader {
  public:
   ElementwiseSumLayer(const cv::dnn::LayerParams& params, cv::Ptr<cv::dnn::EltwiseLayer> opencv)
       : OpenCvBackedLayer(params, std::move(opencv), "KeyfleetSum") {}
@@ -90,12 +94,22 @@ class ElementwiseSumLayer final : public OpenCvBackedLayer<cv::dnn::EltwiseLayer
     hand_overs_.push_back(std::move(hand_over));
   }
 
+  // At set-up (before OpenCV fuses: not undone with the fusions).
+  bool read_pointwise(std::shared_ptr<PointwiseHandOver> hand_over) override {
+    pointwise_ = std::move(hand_over);
+    return true;
+  }
+
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
                cv::OutputArrayOfArrays internals_arr) override {
     std::vector<cv::Mat> inputs, outputs;
     inputs_arr.getMatVector(inputs);
     outputs_arr.getMatVector(outputs);
     const bool ours = outputs.size() == 1 && takes(inputs, outputs[0]);
+    if (ours && add_pointwise(inputs, outputs[0])) return;
+    if (pointwise_)  // written first, as unfused
+      for (const cv::Mat& in : inputs)
+        if (pointwise_->is(in)) pointwise_->write_waiting();
     if (ours && add_upsampled(inputs, outputs[0])) return;
     for (const auto& hand_over : hand_overs_)  // upsampled into the waiting blobs, as unfused
       if (hand_over->waiting()) {
@@ -170,6 +184,38 @@ class ElementwiseSumLayer final : public OpenCvBackedLayer<cv::dnn::EltwiseLayer
     return true;
   }
 
+  // out = the waiting scaled convolution + the other input (itself, or an upsampling's waiting
+  // output read from its source), one image, no activation: the other input added to each stripe
+  // of the convolution's output as it is done. False, with nothing written, where that is not so.
+  bool add_pointwise(const std::vector<cv::Mat>& inputs, cv::Mat& out) {
+    if (!pointwise_ || inputs.size() != 2 || activation_ || out.size[0] != 1) return false;
+    const int mine = pointwise_->is(inputs[0]) ? 0 : pointwise_->is(inputs[1]) ? 1 : -1;
+    if (mine < 0) return false;
+    cv::Mat other = inputs[std::size_t(1 - mine)];
+    PointwiseHandOver& h = *pointwise_;
+    if (h.is(other) || h.kernel->output_channels() != out.size[1] ||
+        std::size_t(h.source.size[2]) * h.source.size[3] != out.total() / out.size[1])
+      return false;
+    UpsamplingHandOver* upsampling = nullptr;
+    for (const auto& h : hand_overs_)
+      if (h->waiting() && other.data == h->target.data) upsampling = h.get();
+    int ky = 1, kx = 1;
+    if (upsampling) {
+      other = upsampling->source;
+      if (!upsamples_by_powers_of_two(other, out) || other.size[0] != 1) return false;
+      ky = out.size[2] / other.size[2];
+      kx = out.size[3] / other.size[3];
+    }
+    // The stripes are written before the other input's pixels under them are read.
+    if (overlaps(other, out) || other.size[1] != out.size[1]) return false;
+    const std::size_t plane = std::size_t(out.size[2]) * out.size[3];
+    const ScaledSum sum(h.kernel->output_channels(), h.scales, other, out.size[3], ky, kx);
+    h.kernel->run_columns(h.source.ptr<float>(), plane, int(plane), out.ptr<float>(), plane, sum);
+    h.target = cv::Mat();
+    if (upsampling) *upsampling = UpsamplingHandOver();
+    return true;
+  }
+
   static bool overlaps(const cv::Mat& a, const cv::Mat& b) {
     return a.datastart < b.dataend && b.datastart < a.dataend;
   }
@@ -183,6 +229,7 @@ class ElementwiseSumLayer final : public OpenCvBackedLayer<cv::dnn::EltwiseLayer
 
   cv::Ptr<cv::dnn::ActivationLayer> activation_;
   std::vector<std::shared_ptr<UpsamplingHandOver>> hand_overs_;
+  std::shared_ptr<PointwiseHandOver> pointwise_;
 };
 
 }  // namespace

@@ -40,29 +40,21 @@ bool FusionOrder::runs_next(const cv::dnn::Layer& self, const cv::dnn::Layer& ne
 }
 
 cv::Ptr<cv::dnn::Layer> FusionOrder::sole_reader(const cv::dnn::Layer& layer) {
-  if (const DnnLayersScope* scope = DnnLayersScope::current()) {
-    for (cv::dnn::Net net : scope->watched()) {
-      try {
-        const int id = net.getLayerId(layer.name);
-        if (id < 0 || net.getLayer(id).get() != &layer) continue;
-        cv::Ptr<cv::dnn::Layer> reader;
-        int readers = 0;
-        for (const cv::String& name : net.getLayerNames()) {
-          const int other = net.getLayerId(name);
-          for (const cv::Ptr<cv::dnn::Layer>& input : net.getLayerInputs(other))
-            if (input.get() == &layer) {
-              ++readers;
-              reader = net.getLayer(other);
-            }
-        }
-        return readers_[layer.name] = readers == 1 ? reader : cv::Ptr<cv::dnn::Layer>();
-      } catch (const cv::Exception&) {
-        return readers_[layer.name] = cv::Ptr<cv::dnn::Layer>();
-      }
+  const std::vector<cv::Ptr<cv::dnn::Layer>> all = readers(layer);
+  return all.size() == 1 ? all[0] : cv::Ptr<cv::dnn::Layer>();
+}
+
+std::vector<cv::Ptr<cv::dnn::Layer>> FusionOrder::readers(const cv::dnn::Layer& layer) {
+  if (DnnLayersScope* scope = DnnLayersScope::current()) {
+    std::vector<cv::Ptr<cv::dnn::Layer>> found;
+    try {
+      if (scope->readers(layer, found)) return readers_[layer.name] = found;
+    } catch (const cv::Exception&) {
+      return readers_[layer.name] = {};
     }
   }
   const auto known = readers_.find(layer.name);
-  return known != readers_.end() ? known->second : cv::Ptr<cv::dnn::Layer>();
+  return known != readers_.end() ? known->second : std::vector<cv::Ptr<cv::dnn::Layer>>();
 }
 
 }  // namespace keyfleet::vision

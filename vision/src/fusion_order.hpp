@@ -28,11 +28,14 @@ class FusionOrder {
   // The one layer that reads `layer`'s outputs in the network the scope watches, else null (none
   // or several, or no watched network holds it); what was found is kept for later set-ups.
   cv::Ptr<cv::dnn::Layer> sole_reader(const cv::dnn::Layer& layer);
+  // Every layer that reads `layer`'s outputs there (empty: none, or no watched network holds it);
+  // kept as sole_reader's.
+  std::vector<cv::Ptr<cv::dnn::Layer>> readers(const cv::dnn::Layer& layer);
 
  private:
   std::vector<std::string> inside_;
-  std::map<std::string, bool> decided_;                     // by the next layer's name
-  std::map<std::string, cv::Ptr<cv::dnn::Layer>> readers_;  // by the layer's name
+  std::map<std::string, bool> decided_;                                  // by the next layer's name
+  std::map<std::string, std::vector<cv::Ptr<cv::dnn::Layer>>> readers_;  // by the layer's name
 };
 
 }  // namespace keyfleet::vision

@@ -85,9 +85,21 @@ void PointwiseConvolution::run_columns(const float* src, std::size_t src_plane, 
   run_in_place(src, src_plane, pixels, dst, dst_plane, activation);
 }
 
+void PointwiseConvolution::run_columns(const float* src, std::size_t src_plane, int pixels,
+                                       float* dst, std::size_t dst_plane,
+                                       const ColumnsEpilogue& epilogue) {
+  CV_Assert(runs_columns());
+  const ProductBlock block = whole_rows_block(cout_, pixels);
+  if (block.rows != block_.rows) pack(block);
+  CV_Assert(cout_ % block_.rows == 0);
+  run_in_place(src, src_plane, pixels, dst, dst_plane, nullptr, &epilogue);
+}
+
 void PointwiseConvolution::run_in_place(const float* src, std::size_t src_plane, int pixels,
                                         float* dst, std::size_t dst_plane,
-                                        const cv::dnn::ActivationLayer* activation) {
+                                        const cv::dnn::ActivationLayer* activation,
+                                        const ColumnsEpilogue* epilogue) {
+  CV_Assert(!(activation && epilogue));
   // Whole blocks read src and write dst where they are (planes `src_plane` and `dst_plane`
   // apart); the columns' remainder, if any, is one block of its own, copied with zero columns after
   // and multiplied into a small buffer, then copied into dst. Padding the whole input and the
@@ -112,12 +124,14 @@ void PointwiseConvolution::run_in_place(const float* src, std::size_t src_plane,
   // the lines its first stores missed, as many streams as outputs.
   const bool large = depth >= total && !bfloat16_ &&
                      std::size_t(cout_) * dst_plane * sizeof(float) >= kStreamedOutputBytes;
-  const bool stream = large && !activation;
-  // With an activation, a stripe's whole blocks are multiplied and activated in a buffer that
-  // stays in L1, then streamed to dst (where its planes keep the vectors 32-byte aligned).
+  const bool finished = activation || epilogue;  // something to do to each stripe
+  const bool stream = large && !finished;
+  // With an activation (or an epilogue), a stripe's whole blocks are multiplied and activated in a
+  // buffer that stays in L1, then streamed to dst (where its planes keep the vectors 32-byte
+  // aligned).
   constexpr int kStripe = 4;
   const std::size_t buffer_stride = std::size_t(kStripe) * width;
-  const bool stream_finished = large && activation && dst_plane % 8 == 0 && vector_aligned(dst);
+  const bool stream_finished = large && finished && dst_plane % 8 == 0 && vector_aligned(dst);
   const int stripes = (blocks + kStripe - 1) / kStripe;
   const int zero_shift = 0;
   cv::parallel_for_(cv::Range(0, stripes), [&](const cv::Range& range) {
@@ -151,8 +165,11 @@ void PointwiseConvolution::run_in_place(const float* src, std::size_t src_plane,
       const int whole_last = std::min(last, whole);  // this stripe's whole blocks end here
       if (stream_finished && whole_last > first) {
         const int n = (whole_last - first) * width;
-        activation->forwardSlice(stripe_buffer.data(), stripe_buffer.data(), n, buffer_stride, 0,
-                                 cout_);
+        if (epilogue)
+          epilogue->apply(stripe_buffer.data(), buffer_stride, first * width, n);
+        else
+          activation->forwardSlice(stripe_buffer.data(), stripe_buffer.data(), n, buffer_stride, 0,
+                                   cout_);
         for (int c = 0; c < cout_; ++c)
           stream_floats(stripe_buffer.data() + c * buffer_stride,
                         dst + c * dst_plane + first * width, n);
@@ -161,8 +178,12 @@ void PointwiseConvolution::run_in_place(const float* src, std::size_t src_plane,
         for (int c = 0; c < cout_; ++c)
           std::copy_n(products_.data() + std::size_t(c) * width, tail,
                       dst + c * dst_plane + whole * width);
-      finish_columns(nullptr, pixels, cout_, (stream_finished ? whole_last : first) * width,
-                     std::min(pixels, last * width), dst, int(dst_plane), activation);
+      const int n0 = (stream_finished ? whole_last : first) * width;
+      const int n1 = std::min(pixels, last * width);
+      if (epilogue && n1 > n0)
+        epilogue->apply(dst + n0, dst_plane, n0, n1 - n0);
+      else
+        finish_columns(nullptr, pixels, cout_, n0, n1, dst, int(dst_plane), activation);
     }
     if (stream || stream_finished) stores_fence();  // the streamed lines visible before the end
   });

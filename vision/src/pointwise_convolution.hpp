@@ -14,6 +14,15 @@
 
 namespace keyfleet::vision {
 
+// What a caller applies to each finished stripe of a layer's output in place of an activation:
+// columns [first, first + n) of every output channel, channel c's at out + c * stride (in a
+// buffer or in dst itself; `first` counts from the image's first pixel).
+class ColumnsEpilogue {
+ public:
+  virtual ~ColumnsEpilogue() = default;
+  virtual void apply(float* out, std::size_t stride, int first, int n) const = 0;
+};
+
 class PointwiseConvolution : public ProductKernel {
  public:
   // weights: output channels x input channels x 1 x 1, float; bias: empty or one per output;
@@ -32,12 +41,20 @@ class PointwiseConvolution : public ProductKernel {
   // computes them. Requires runs_columns().
   void run_columns(const float* src, std::size_t src_plane, int pixels, float* dst,
                    std::size_t dst_plane, const cv::dnn::ActivationLayer* activation);
+  // The same with `epilogue` applied to each finished stripe instead of an activation.
+  void run_columns(const float* src, std::size_t src_plane, int pixels, float* dst,
+                   std::size_t dst_plane, const ColumnsEpilogue& epilogue);
+
+  // Output channel c's weights (input_channels() floats) and bias.
+  const float* weights_of(int c) const { return weights_.ptr<float>() + std::size_t(c) * cin_; }
+  float bias_of(int c) const { return bias_[std::size_t(c)]; }
 
  private:
   void pack(ProductBlock block);  // the weights for blocks of that shape
   // Float, the outputs whole row blocks: src and dst used where they are.
   void run_in_place(const float* src, std::size_t src_plane, int pixels, float* dst,
-                    std::size_t dst_plane, const cv::dnn::ActivationLayer* activation);
+                    std::size_t dst_plane, const cv::dnn::ActivationLayer* activation,
+                    const ColumnsEpilogue* epilogue = nullptr);
 
   // The block shape the weights are packed for (chosen per input size: in float, rows that divide
   // the outputs where a shape's do, else the least padding).

@@ -27,6 +27,9 @@
 //   once and copies it. Where a float 3x3 convolution alone reads a concatenation it writes a
 //   slice of (PP-OCR's DB head), an upsampling by 4 or more leaves the slice unwritten and the
 //   convolution computes that share at the small size (upsampled_taps).
+// - channel scaling x * s by a computed tensor of one float per channel (PP-OCR's squeeze-and-
+//   excitation gates): OpenCV's own layer, except where x is a 1x1 convolution's output that only
+//   stand-ins read (excited_sums): there the sum after it computes the scaled convolution.
 // - inner product with constant weights (PP-OCR's recogniser's last MatMul) as the same matrix
 //   product, and softmax over the last axis with OpenCV's vectorised exp (dense_layers.hpp).
 // Each stand-in convolution takes the whole chain of activations OpenCV fuses into it (PP-OCR's
@@ -42,6 +45,7 @@
 // spread, not by float rounding); layers with fewer than 8 outputs stay in float.
 #include <opencv2/dnn.hpp>
 
+#include <map>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -76,6 +80,11 @@ struct DnnLayers {
   // each way (PP-OCR's DB head) computes their share at the small size, the upsampled slices
   // never written (upsampled_taps.hpp): the same sums in another order (float rounding).
   bool upsampled_taps = true;
+  // A float 1x1 convolution whose output only a global average pooling and a channel scaling
+  // read, the scaling's only an element-wise sum (PP-OCR's RSE layers): the pooling from the
+  // convolution's input, the convolution scaled and summed in one pass by the sum, neither
+  // output written (pointwise_hand_over.hpp): the same sums to float rounding.
+  bool excited_sums = true;
   static DnnLayers opencv() {
     return {false, false, false, false, false, false, false,
             false, false, false, false, false, false, false};
@@ -125,6 +134,10 @@ class DnnLayersScope {
   const std::vector<cv::dnn::Net>& watched() const { return watched_; }
   // The calling thread's scope, or null.
   static DnnLayersScope* current();
+  // For the stand-ins: every layer that reads `layer`'s outputs in the watched network holding it
+  // (a layer reading it twice is there twice); false where no watched network holds it. Indexed
+  // once a network (the networks are whole by their first set-up).
+  bool readers(const cv::dnn::Layer& layer, std::vector<cv::Ptr<cv::dnn::Layer>>& found);
 
  private:
   static std::mutex& scope_mutex();  // OpenCV refuses a second registration of a constructor
@@ -133,6 +146,8 @@ class DnnLayersScope {
   std::unique_lock<std::mutex> lock_;
   std::vector<std::string> registered_;
   std::vector<cv::dnn::Net> watched_;
+  // Per watched network (by its index): each layer's readers.
+  std::vector<std::map<const cv::dnn::Layer*, std::vector<cv::Ptr<cv::dnn::Layer>>>> readers_;
 };
 
 }  // namespace keyfleet::vision
