@@ -8,10 +8,10 @@
 // + b: the same to float rounding); the scaling notes g and leaves y unwritten in turn; and the
 // sum computes g (W m + b) + up(...) a stripe of columns at a time as the 1x1 kernel's epilogue,
 // x and y never written nor read back (the finest level at 640x480: four layers' 1.4 ms on one
-// core in one pass of 0.9, docs/results/2026-11-29-excited-sums.md). Each reader checks the hand-over against its
-// input on every pass; one that cannot take it writes the waiting blob first (write_waiting), as
-// unfused. Internal to keyfleet_vision (convolution_layers.cpp, dense_layers.cpp,
-// channel_scale.cpp, elementwise_sum.cpp).
+// core in one pass of 0.9, docs/results/2026-11-29-excited-sums.md). Each reader checks the
+// hand-over against its input on every pass; one that cannot take it writes the waiting blob first
+// (write_waiting), as unfused. Internal to keyfleet_vision (convolution_layers.cpp,
+// dense_layers.cpp, channel_scale.cpp, elementwise_sum.cpp).
 #include <opencv2/core.hpp>
 #include <opencv2/dnn.hpp>
 
