@@ -4,8 +4,9 @@
 // outputs to float rounding with the other input upsampled by 2, 4 or 1 each way, or plain; and
 // where the hand-over cannot be taken whole: the scaling's output read by another layer too (the
 // scaling writes it), the convolution's read by a layer that knows no hand-over (nothing handed
-// over); set up again for another size outside the scope. (Two images: OpenCV 4.6's own Scale
-// layer refuses a gate per image, so no such network runs.)
+// over), the sum reading a second 1x1 layer that hands nothing over; set up again for another size
+// outside the scope. (Two images: OpenCV 4.6's own Scale layer refuses a gate per image, so no such
+// network runs.)
 #include <gtest/gtest.h>
 
 #include <opencv2/dnn/shape_utils.hpp>
@@ -46,6 +47,7 @@ struct Layout {
   int zoom = 2;                  // the sum's other input: "t" upsampled so (0: "t" itself)
   bool scaled_read_too = false;  // a ReLU reads the scaling's output as well
   bool conv_read_too = false;    // a ReLU reads the convolution's output as well
+  bool other_by_conv = false;    // the sum's other input: a 1x1 layer of "t" (zoom 0)
 };
 
 // m (12 channels) -> 1x1 (C) = x; gate = 1 + sigmoid(1x1(relu(1x1(pool(x))))); sum = x * gate
@@ -83,7 +85,10 @@ class ExcitedNetwork {
     int scaled_extra = -1;
     if (layout.scaled_read_too) scaled_extra = add("scaled_extra", of_type("ReLU"), {scaled, 0});
     int other = 0, other_pin = 1;
-    if (layout.zoom > 0) {
+    if (layout.other_by_conv) {
+      other = add("other_conv", pointwise(rng, channels, channels), {0, 1});
+      other_pin = 0;
+    } else if (layout.zoom > 0) {
       cv::dnn::LayerParams up = of_type("Resize");
       up.set("interpolation", "nearest");
       up.set("zoom_factor_y", layout.zoom);
@@ -162,7 +167,7 @@ TEST(ExcitedSum, TheSumComputesTheScaledConvolutionAsOpenCvDoes) {
     ExcitedNetwork ours(layout, c.channels), theirs(layout, c.channels);
     const cv::Mat got = ours.run(in.m, in.t, under_test(true));
     EXPECT_EQ(ours.type("scale"), "KeyfleetScaleHandedOver") << label;
-    EXPECT_EQ(ours.type("conv"), "KeyfleetPointwise") << label;
+    EXPECT_EQ(ours.type("conv"), "KeyfleetPointwiseHandedOver") << label;
     expect_near(got, theirs.run(in.m, in.t, std::nullopt), label);
     // Again: the hand-over is set afresh on every pass.
     expect_near(ours.run_here(in.m, in.t), got, label + " again");
@@ -186,7 +191,23 @@ TEST(ExcitedSum, AConvolutionReadByALayerThatKnowsNoHandOverWritesItsOutput) {
   ExcitedNetwork ours(layout, 24), theirs(layout, 24);
   const cv::Mat got = ours.run(in.m, in.t, under_test(true));
   EXPECT_EQ(ours.type("scale"), "KeyfleetScale");
+  EXPECT_EQ(ours.type("conv"), "KeyfleetPointwise");
   expect_near(got, theirs.run(in.m, in.t, std::nullopt), "convolution read by a ReLU");
+}
+
+// The sum also reads another 1x1 layer, whose only reader it is (no scaling: not handed over, as
+// MiniNet's residual blocks): that layer leaves the sum the other's hand-over.
+TEST(ExcitedSum, ASumReadingTwoConvolutionsTakesTheOneHandedOver) {
+  Layout layout;
+  layout.zoom = 0;
+  layout.other_by_conv = true;
+  const Inputs in = inputs(1, 24, 12, 16, 0);
+  ExcitedNetwork ours(layout, 24), theirs(layout, 24);
+  const cv::Mat got = ours.run(in.m, in.t, under_test(true));
+  EXPECT_EQ(ours.type("conv"), "KeyfleetPointwiseHandedOver");
+  EXPECT_EQ(ours.type("other_conv"), "KeyfleetPointwise");
+  EXPECT_EQ(ours.type("scale"), "KeyfleetScaleHandedOver");
+  expect_near(got, theirs.run(in.m, in.t, std::nullopt), "two convolutions into the sum");
 }
 
 TEST(ExcitedSum, OffItIsTheLayersOneByOne) {

@@ -25,22 +25,32 @@ class ChannelScaleLayer final : public OpenCvBackedLayer<cv::dnn::ScaleLayer>,
   ChannelScaleLayer(const cv::dnn::LayerParams& params, cv::Ptr<cv::dnn::ScaleLayer> opencv)
       : OpenCvBackedLayer(params, std::move(opencv), "KeyfleetScale") {}
 
-  bool read_pointwise(std::shared_ptr<PointwiseHandOver> hand_over) override {
-    hand_over_ = std::move(hand_over);
+  bool read_pointwise(const std::shared_ptr<PointwiseHandOver>& hand_over) override {
+    received_.add(hand_over);
     return true;
   }
+  void drop_pointwise(const PointwiseHandOver* hand_over) override {
+    received_.drop(hand_over);
+    withdraw_from(order_.readers(*this), hand_over);
+  }
+  bool scales_channels() const override { return true; }
 
   void finalize(cv::InputArrayOfArrays inputs, cv::OutputArrayOfArrays outputs) override {
     OpenCvBackedLayer::finalize(inputs, outputs);
-    // The convolution before it (a lower id) has handed over, or not, by now.
-    const bool handed = hand_over_ != nullptr;
-    passes_on_ = hand_over_to(order_.readers(*this), hand_over_) && handed;
+    // The convolution before it (a lower id) has handed over, or not, by now: passed on where
+    // every reader of this output takes it.
+    const std::vector<cv::Ptr<cv::dnn::Layer>> readers = order_.readers(*this);
+    passes_on_ = !received_.all().empty();
+    for (const auto& hand_over : received_.all())
+      if (passes_on_ && !hand_over_to(readers, hand_over)) passes_on_ = false;
+    if (!passes_on_)
+      for (const auto& hand_over : received_.all()) withdraw_from(readers, hand_over.get());
     type = passes_on_ ? "KeyfleetScaleHandedOver" : "KeyfleetScale";
   }
 
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
                cv::OutputArrayOfArrays internals_arr) override {
-    if (hand_over_ && take(inputs_arr, outputs_arr)) return;
+    if (!received_.all().empty() && take(inputs_arr, outputs_arr)) return;
     opencv_->forward(inputs_arr, outputs_arr, internals_arr);
   }
 
@@ -52,25 +62,27 @@ class ChannelScaleLayer final : public OpenCvBackedLayer<cv::dnn::ScaleLayer>,
     inputs_arr.getMatVector(inputs);
     outputs_arr.getMatVector(outputs);
     if (inputs.size() != 2 || outputs.size() != 1) return false;
-    const int x = hand_over_->is(inputs[0]) ? 0 : hand_over_->is(inputs[1]) ? 1 : -1;
-    if (x < 0) return false;
+    int x = 0;
+    PointwiseHandOver* hand_over = received_.waiting_as(inputs[0]);
+    if (!hand_over) hand_over = received_.waiting_as(inputs[x = 1]);
+    if (!hand_over) return false;
     const cv::Mat& s = inputs[std::size_t(1 - x)];
-    const int channels = hand_over_->kernel->output_channels();
+    const int channels = hand_over->kernel->output_channels();
     if (inputs[std::size_t(x)].size[0] != 1 || s.type() != CV_32F || !s.isContinuous() ||
         int(s.total()) != channels || (s.dims > 1 && s.size[1] != channels) ||
         outputs[0].size != inputs[std::size_t(x)].size) {
-      hand_over_->write_waiting();
+      hand_over->write_waiting();
       return false;
     }
-    std::vector<float>& scales = hand_over_->scales;
+    std::vector<float>& scales = hand_over->scales;
     if (scales.empty()) scales.assign(std::size_t(channels), 1.f);
     for (int c = 0; c < channels; ++c) scales[std::size_t(c)] *= s.ptr<float>()[c];
-    hand_over_->target = outputs[0];
-    if (!passes_on_) hand_over_->write_waiting();
+    hand_over->target = outputs[0];
+    if (!passes_on_) hand_over->write_waiting();
     return true;
   }
 
-  std::shared_ptr<PointwiseHandOver> hand_over_;
+  HeldHandOvers received_;
   bool passes_on_ = false;
   FusionOrder order_;  // its readers, found in the watched network
 };

@@ -347,7 +347,9 @@ class DepthwiseFusion {
 class PointwiseLayer final : public SameSizeLayer<PointwiseConvolution> {
  public:
   explicit PointwiseLayer(const cv::dnn::LayerParams& params)
-      : SameSizeLayer(params, "KeyfleetPointwise"), may_hand_over_(scope_layers().excited_sums) {}
+      : SameSizeLayer(params, "KeyfleetPointwise"),
+        may_hand_over_(scope_layers().excited_sums),
+        unfused_type_(type) {}
 
   static bool handles(const cv::dnn::LayerParams& params,
                       const cv::dnn::BaseConvolutionLayer& geometry) {
@@ -366,21 +368,22 @@ class PointwiseLayer final : public SameSizeLayer<PointwiseConvolution> {
     return fusion_.add_activation(layer, activations_, type);
   }
 
-  // Where every reader of its output is a stand-in that takes it (pointwise_hand_over.hpp), the
-  // output is left to them on each pass that allows it (one image, nothing fused into this one).
+  // Where every reader of its output is a stand-in that takes it, one of them a channel scaling
+  // (pointwise_hand_over.hpp), the output is left to them on each pass that allows it (one
+  // image, nothing fused into this one).
   void finalize(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays) override {
     fusion_.note_output(inputs_arr, kernel_.output_channels(), [](int side) { return side; });
-    hand_over_.reset();
-    if (may_hand_over_ && kernel_.runs_columns()) {
-      auto hand_over = std::make_shared<PointwiseHandOver>();
-      hand_over->kernel = &kernel_;
-      if (hand_over_to(order_.readers(*this), hand_over)) hand_over_ = std::move(hand_over);
-    }
+    const std::vector<cv::Ptr<cv::dnn::Layer>> readers =
+        may_hand_over_ && kernel_.runs_columns() ? order_.readers(*this)
+                                                 : std::vector<cv::Ptr<cv::dnn::Layer>>();
+    handed_ = read_by_channel_scale(readers) && hand_over_to(readers, hand_over_);
+    if (!handed_) withdraw_from(readers, hand_over_.get());
+    if (!fusion_.fused()) type = handed_ ? unfused_type_ + "HandedOver" : unfused_type_;
   }
 
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
                cv::OutputArrayOfArrays internals_arr) override {
-    if (hand_over_) {
+    if (handed_) {
       hand_over_->scales.clear();  // what the last pass left
       hand_over_->target = cv::Mat();
       LayerIo io = float_layer_io(inputs_arr, outputs_arr, false);
@@ -410,8 +413,12 @@ class PointwiseLayer final : public SameSizeLayer<PointwiseConvolution> {
  private:
   DepthwiseFusion fusion_{*this};
   bool may_hand_over_;
+  std::string unfused_type_;
   FusionOrder order_;  // its readers, found in the watched network
-  std::shared_ptr<PointwiseHandOver> hand_over_;
+  // Its own, the same at every set-up (the readers keep it while handed_).
+  std::shared_ptr<PointwiseHandOver> hand_over_ =
+      std::make_shared<PointwiseHandOver>(PointwiseHandOver{&kernel_, {}, {}, {}});
+  bool handed_ = false;
 };
 
 // The same in 8-bit integers (pointwise_int8.hpp), where the scope asks for it.

@@ -286,10 +286,11 @@ class GlobalAveragePoolLayer final : public cv::dnn::Layer, public PointwiseRead
     return false;
   }
 
-  bool read_pointwise(std::shared_ptr<PointwiseHandOver> hand_over) override {
-    hand_over_ = std::move(hand_over);
+  bool read_pointwise(const std::shared_ptr<PointwiseHandOver>& hand_over) override {
+    held_.add(hand_over);
     return true;
   }
+  void drop_pointwise(const PointwiseHandOver* hand_over) override { held_.drop(hand_over); }
 
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
                cv::OutputArrayOfArrays) override {
@@ -299,12 +300,12 @@ class GlobalAveragePoolLayer final : public cv::dnn::Layer, public PointwiseRead
     const cv::Mat& in = inputs.at(0);
     cv::Mat& out = outputs.at(0);
     CV_Assert(in.type() == CV_32F && in.isContinuous() && out.isContinuous() && in.dims >= 3);
-    if (hand_over_ && hand_over_->is(in)) {
-      if (in.size[0] == 1 && int(out.total()) == hand_over_->kernel->output_channels()) {
-        hand_over_->means(out.ptr<float>());
+    if (PointwiseHandOver* hand_over = held_.waiting_as(in)) {
+      if (in.size[0] == 1 && int(out.total()) == hand_over->kernel->output_channels()) {
+        hand_over->means(out.ptr<float>());
         return;
       }
-      hand_over_->write_waiting();
+      hand_over->write_waiting();
     }
     const int planes = in.size[0] * in.size[1];
     const int n = planes == 0 ? 0 : int(in.total() / std::size_t(planes));
@@ -319,7 +320,7 @@ class GlobalAveragePoolLayer final : public cv::dnn::Layer, public PointwiseRead
   }
 
  private:
-  std::shared_ptr<PointwiseHandOver> hand_over_;
+  HeldHandOvers held_;
 };
 
 }  // namespace

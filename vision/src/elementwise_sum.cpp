@@ -95,10 +95,11 @@ class ElementwiseSumLayer final : public OpenCvBackedLayer<cv::dnn::EltwiseLayer
   }
 
   // At set-up (before OpenCV fuses: not undone with the fusions).
-  bool read_pointwise(std::shared_ptr<PointwiseHandOver> hand_over) override {
-    pointwise_ = std::move(hand_over);
+  bool read_pointwise(const std::shared_ptr<PointwiseHandOver>& hand_over) override {
+    pointwise_.add(hand_over);
     return true;
   }
+  void drop_pointwise(const PointwiseHandOver* hand_over) override { pointwise_.drop(hand_over); }
 
   void forward(cv::InputArrayOfArrays inputs_arr, cv::OutputArrayOfArrays outputs_arr,
                cv::OutputArrayOfArrays internals_arr) override {
@@ -107,9 +108,8 @@ class ElementwiseSumLayer final : public OpenCvBackedLayer<cv::dnn::EltwiseLayer
     outputs_arr.getMatVector(outputs);
     const bool ours = outputs.size() == 1 && takes(inputs, outputs[0]);
     if (ours && add_pointwise(inputs, outputs[0])) return;
-    if (pointwise_)  // written first, as unfused
-      for (const cv::Mat& in : inputs)
-        if (pointwise_->is(in)) pointwise_->write_waiting();
+    for (const cv::Mat& in : inputs)  // written first, as unfused
+      if (PointwiseHandOver* waiting = pointwise_.waiting_as(in)) waiting->write_waiting();
     if (ours && add_upsampled(inputs, outputs[0])) return;
     for (const auto& hand_over : hand_overs_)  // upsampled into the waiting blobs, as unfused
       if (hand_over->waiting()) {
@@ -188,17 +188,19 @@ class ElementwiseSumLayer final : public OpenCvBackedLayer<cv::dnn::EltwiseLayer
   // output read from its source), one image, no activation: the other input added to each stripe
   // of the convolution's output as it is done. False, with nothing written, where that is not so.
   bool add_pointwise(const std::vector<cv::Mat>& inputs, cv::Mat& out) {
-    if (!pointwise_ || inputs.size() != 2 || activation_ || out.size[0] != 1) return false;
-    const int mine = pointwise_->is(inputs[0]) ? 0 : pointwise_->is(inputs[1]) ? 1 : -1;
-    if (mine < 0) return false;
+    if (inputs.size() != 2 || activation_ || out.size[0] != 1) return false;
+    int mine = 0;
+    PointwiseHandOver* waiting = pointwise_.waiting_as(inputs[0]);
+    if (!waiting) waiting = pointwise_.waiting_as(inputs[mine = 1]);
+    if (!waiting) return false;
     cv::Mat other = inputs[std::size_t(1 - mine)];
-    PointwiseHandOver& h = *pointwise_;
-    if (h.is(other) || h.kernel->output_channels() != out.size[1] ||
+    PointwiseHandOver& h = *waiting;
+    if (pointwise_.waiting_as(other) || h.kernel->output_channels() != out.size[1] ||
         std::size_t(h.source.size[2]) * h.source.size[3] != out.total() / out.size[1])
       return false;
     UpsamplingHandOver* upsampling = nullptr;
-    for (const auto& h : hand_overs_)
-      if (h->waiting() && other.data == h->target.data) upsampling = h.get();
+    for (const auto& u : hand_overs_)
+      if (u->waiting() && other.data == u->target.data) upsampling = u.get();
     int ky = 1, kx = 1;
     if (upsampling) {
       other = upsampling->source;
@@ -229,7 +231,7 @@ class ElementwiseSumLayer final : public OpenCvBackedLayer<cv::dnn::EltwiseLayer
 
   cv::Ptr<cv::dnn::ActivationLayer> activation_;
   std::vector<std::shared_ptr<UpsamplingHandOver>> hand_overs_;
-  std::shared_ptr<PointwiseHandOver> pointwise_;
+  HeldHandOvers pointwise_;
 };
 
 }  // namespace

@@ -118,6 +118,13 @@ void ScaledSum::apply(float* out, std::size_t stride, int first, int n) const {
   }
 }
 
+bool read_by_channel_scale(const std::vector<cv::Ptr<cv::dnn::Layer>>& readers) {
+  for (const cv::Ptr<cv::dnn::Layer>& layer : readers)
+    if (const auto* reader = dynamic_cast<const PointwiseReader*>(layer.get()))
+      if (reader->scales_channels()) return true;
+  return false;
+}
+
 bool hand_over_to(const std::vector<cv::Ptr<cv::dnn::Layer>>& readers,
                   const std::shared_ptr<PointwiseHandOver>& hand_over) {
   std::vector<PointwiseReader*> takers;
@@ -127,8 +134,32 @@ bool hand_over_to(const std::vector<cv::Ptr<cv::dnn::Layer>>& readers,
   for (PointwiseReader* reader : takers)
     if (all && !reader->read_pointwise(hand_over)) all = false;
   if (!all)
-    for (PointwiseReader* reader : takers) reader->read_pointwise(nullptr);
+    for (PointwiseReader* reader : takers) reader->drop_pointwise(hand_over.get());
   return all;
+}
+
+void withdraw_from(const std::vector<cv::Ptr<cv::dnn::Layer>>& readers,
+                   const PointwiseHandOver* hand_over) {
+  for (const cv::Ptr<cv::dnn::Layer>& layer : readers)
+    if (auto* reader = dynamic_cast<PointwiseReader*>(layer.get()))
+      reader->drop_pointwise(hand_over);
+}
+
+void HeldHandOvers::add(const std::shared_ptr<PointwiseHandOver>& hand_over) {
+  if (hand_over && std::find(held_.begin(), held_.end(), hand_over) == held_.end())
+    held_.push_back(hand_over);
+}
+
+void HeldHandOvers::drop(const PointwiseHandOver* hand_over) {
+  held_.erase(std::remove_if(held_.begin(), held_.end(),
+                             [&](const auto& h) { return h.get() == hand_over; }),
+              held_.end());
+}
+
+PointwiseHandOver* HeldHandOvers::waiting_as(const cv::Mat& blob) const {
+  for (const auto& h : held_)
+    if (h->is(blob)) return h.get();
+  return nullptr;
 }
 
 }  // namespace keyfleet::vision

@@ -54,18 +54,43 @@ class ScaledSum final : public ColumnsEpilogue {
   int width_, ky_, kx_;
 };
 
-// A stand-in that reads the convolution's (or the scaling's) output; `hand_over` empty: none.
-// Whether it takes the hand-over (it then checks it on every pass).
+// A stand-in that reads the convolution's (or the scaling's) output. Each convolution hands over
+// one object of its own, the same at every set-up: a reader keeps every one it takes (a sum may
+// read two convolutions) and forgets only the one it is told to.
 class PointwiseReader {
  public:
   virtual ~PointwiseReader() = default;
-  virtual bool read_pointwise(std::shared_ptr<PointwiseHandOver> hand_over) = 0;
+  // Whether it takes `hand_over` (it then checks it on every pass); taking one twice is once.
+  virtual bool read_pointwise(const std::shared_ptr<PointwiseHandOver>& hand_over) = 0;
+  virtual void drop_pointwise(const PointwiseHandOver* hand_over) = 0;
+  // The channel scaling (the pattern measured; a 1x1 layer whose only reader is a sum, say
+  // MiniNet's residual blocks with an activation fused into the sum, would gain nothing).
+  virtual bool scales_channels() const { return false; }
 };
 
+// What a reader holds.
+class HeldHandOvers {
+ public:
+  void add(const std::shared_ptr<PointwiseHandOver>& hand_over);
+  void drop(const PointwiseHandOver* hand_over);
+  // The one whose waiting blob is `blob`, else null.
+  PointwiseHandOver* waiting_as(const cv::Mat& blob) const;
+  const std::vector<std::shared_ptr<PointwiseHandOver>>& all() const { return held_; }
+
+ private:
+  std::vector<std::shared_ptr<PointwiseHandOver>> held_;
+};
+
+// Whether one of `readers` is a channel scaling that takes hand-overs.
+bool read_by_channel_scale(const std::vector<cv::Ptr<cv::dnn::Layer>>& readers);
+
 // At set-up: hands `hand_over` to every one of `readers` (a layer's output's, fusion_order.hpp)
-// where each is a PointwiseReader that takes it; else to none (each told to drop any it holds).
+// where each is a PointwiseReader that takes it; else to none (those that took it drop it).
 // Whether it was handed over.
 bool hand_over_to(const std::vector<cv::Ptr<cv::dnn::Layer>>& readers,
                   const std::shared_ptr<PointwiseHandOver>& hand_over);
+// Tells every PointwiseReader of `readers` to forget `hand_over` (not handed over this set-up).
+void withdraw_from(const std::vector<cv::Ptr<cv::dnn::Layer>>& readers,
+                   const PointwiseHandOver* hand_over);
 
 }  // namespace keyfleet::vision
