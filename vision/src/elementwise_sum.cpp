@@ -32,15 +32,14 @@ void add_floats(const float* a, const float* b, float* dst, int n) {
   for (; i < n; ++i) dst[i] = a[i] + b[i];
 }
 
-namespace {
-
-// Whether m is a 4-D float blob whose planes are each contiguous (its images may lie apart: an
-// output may be a slice of a concatenation's channels).
+// upsampling_hand_over.hpp: the sums here, the upsamplings and the 1x1 layers' hand-over.
 bool planes_contiguous(const cv::Mat& m) {
   return m.dims == 4 && m.type() == CV_32F && m.step[3] == sizeof(float) &&
          m.step[2] == m.step[3] * std::size_t(m.size[3]) &&
          m.step[1] == m.step[2] * std::size_t(m.size[2]);
 }
+
+namespace {
 
 // ONNX Add (and Sum) of inputs of one shape: OpenCV 4.6's Eltwise layer adds them in blocks of
 // 4,096 values that visit every channel's plane in turn, one element at a time (PP-OCR's detector

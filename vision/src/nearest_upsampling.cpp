@@ -59,11 +59,8 @@ void repeat_columns(const float* src, int n, int k, float* dst) {
 }
 
 bool upsamples_by_powers_of_two(const cv::Mat& in, const cv::Mat& out) {
-  if (in.dims != 4 || out.dims != 4 || in.type() != CV_32F || out.type() != CV_32F ||
-      !in.isContinuous() || in.size[0] != out.size[0] || in.size[1] != out.size[1] ||
-      in.size[2] <= 0 || in.size[3] <= 0 || out.step[3] != sizeof(float) ||
-      out.step[2] != out.step[3] * std::size_t(out.size[3]) ||
-      out.step[1] != out.step[2] * std::size_t(out.size[2]))
+  if (in.dims != 4 || in.type() != CV_32F || !planes_contiguous(out) || !in.isContinuous() ||
+      in.size[0] != out.size[0] || in.size[1] != out.size[1] || in.size[2] <= 0 || in.size[3] <= 0)
     return false;
   return out.size[2] % in.size[2] == 0 && out.size[3] % in.size[3] == 0 &&
          power_of_two(out.size[2] / in.size[2]) && power_of_two(out.size[3] / in.size[3]);

@@ -49,11 +49,7 @@ void scale_add_doubled(float* d, float g, const float* a, int x0, int n) {
   for (; i < n; ++i) d[i] = g * d[i] + a[(x0 + i) / 2];
 }
 
-bool one_image_planes(const cv::Mat& m) {
-  return m.dims == 4 && m.type() == CV_32F && m.size[0] == 1 && m.step[3] == sizeof(float) &&
-         m.step[2] == m.step[3] * std::size_t(m.size[3]) &&
-         m.step[1] == m.step[2] * std::size_t(m.size[2]);
-}
+bool one_image_planes(const cv::Mat& m) { return planes_contiguous(m) && m.size[0] == 1; }
 
 }  // namespace
 

@@ -46,6 +46,10 @@ class SliceReader {
   virtual bool read_upsampled_slice(std::shared_ptr<UpsamplingHandOver> hand_over) = 0;
 };
 
+// Whether m is a 4-D float blob whose planes are each contiguous (its images may lie apart: an
+// output may be a slice of a concatenation's channels).
+bool planes_contiguous(const cv::Mat& m);
+
 // dst = a + b, n floats in SIMD (dst may be a or b).
 void add_floats(const float* a, const float* b, float* dst, int n);
 
