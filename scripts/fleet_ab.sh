@@ -122,7 +122,7 @@ for round in $(seq 1 "$rounds"); do
 done
 
 "$python" - "$out" <<'EOF'
-import glob, json, os, statistics, sys
+import glob, json, os, re, statistics, sys
 
 out = sys.argv[1]
 fields = [("rt", "real time", "keeps_realtime"), ("rtf", "RTF min", "rtf_min"),
@@ -131,17 +131,51 @@ fields = [("rt", "real time", "keeps_realtime"), ("rtf", "RTF min", "rtf_min"),
           ("text", "text CPU ms/kf", "station_text_cpu_ms_per_keyframe"),
           ("places", "places ms/kf", "station_places_ms_per_keyframe"),
           ("deferred", "deferred", "station_deferred")]
+# Builds older than fleet.json (before 2026-11-28's) print the same figures as tables only: their
+# columns, by the names the benchmark prints, for the fields above that they hold.
+printed = {"real time": "keeps_realtime", "RTFmin": "rtf_min", "agent ms/f": "agent_cpu_ms_per_frame",
+           "stn ms/f": "station_cpu_ms_per_frame", "OCR cpu": "station_text_cpu_ms_per_keyframe"}
+columns = re.compile(r"read p95\+dfr|fps/core|real time|RTFmin|RTF|wall s|lag ms|agent ms/f|"
+                     r"strm ms/f|stn ms/f|stn work|stn kf|OCR ms/kf|OCR cpu|frames|late|mode|N")
+
+def from_log(log):
+    """The first run's figures from the tables a run printed, or None."""
+    lines = open(log, errors="replace").read().splitlines()
+    run, stages = None, None
+    for header, values in zip(lines, lines[1:]):
+        if run is None and header.startswith("mode") and "stn ms/f" in header:
+            names, cells = columns.findall(header), values.split()
+            if len(names) == len(cells):
+                run = dict(zip(names, cells))
+        elif stages is None and header.startswith("mode") and "semantic" in header:
+            names, cells = header.split(), values.split()
+            if len(names) == len(cells):
+                stages = dict(zip(names, cells))
+    if run is None:
+        return None
+    row = {key: None for key, _, _ in fields}
+    for key, _, source in fields:
+        for name, wanted in printed.items():
+            if wanted == source and name in run:
+                row[key] = run[name] == "yes" if name == "real time" else float(run[name])
+    row["semantic"] = float(stages["semantic"]) if stages and "semantic" in stages else None
+    return row
+
 runs = {}
 for log in sorted(glob.glob(os.path.join(out, "runs", "*-n*-r*.log"))):
     name = os.path.basename(log)[:-4]
     side, n, r = name.split("-")
     found = glob.glob(os.path.join(out, "runs", name, "fleet-*", "fleet.json"))
-    if not found:
-        print(f"{name}: no fleet.json (see {log})")
-        continue
-    run = json.load(open(found[0]))["runs"][0]
-    row = {key: run.get(source) for key, _, source in fields}
-    row["semantic"] = run.get("stage_ms_per_frame", {}).get("semantic")
+    if found:
+        run = json.load(open(found[0]))["runs"][0]
+        row = {key: run.get(source) for key, _, source in fields}
+        row["semantic"] = run.get("stage_ms_per_frame", {}).get("semantic")
+    else:
+        row = from_log(log)
+        if row is None:
+            print(f"{name}: no fleet.json and no figures in its log (see {log})")
+            continue
+        print(f"{name}: no fleet.json (an older build): figures read from its log")
     runs[(side, int(n[1:]), int(r[1:]))] = row
 
 def cell(v):
