@@ -6,6 +6,8 @@
 #include <csignal>
 #include <ctime>
 
+#include "keyfleet/common/thread_name.hpp"
+
 namespace keyfleet {
 namespace {
 
@@ -42,6 +44,7 @@ void block_termination_signals() {
 
 ShutdownSignal::ShutdownSignal() {
   waiter_ = std::thread([this] {
+    name_this_thread("signals");
     const sigset_t set = termination_signals();
     const timespec poll_period{0, 100'000'000};  // for signals the handler recorded instead
     while (true) {

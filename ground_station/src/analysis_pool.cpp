@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
+
+#include "keyfleet/common/thread_name.hpp"
 
 namespace keyfleet::station {
 
@@ -11,7 +14,11 @@ AnalysisPool::AnalysisPool(std::vector<Step> workers, std::size_t capacity, Logg
       logger_(std::move(logger)),
       on_start_(std::move(on_start)) {
   threads_.reserve(workers.size());
-  for (auto& step : workers) threads_.emplace_back([this, step = std::move(step)] { run(step); });
+  for (std::size_t i = 0; i < workers.size(); ++i)
+    threads_.emplace_back([this, i, step = std::move(workers[i])] {
+      name_this_thread("analysis-" + std::to_string(i));
+      run(step);
+    });
 }
 
 AnalysisPool::~AnalysisPool() { stop(); }

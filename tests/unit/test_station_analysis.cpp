@@ -11,10 +11,12 @@
 #include <mutex>
 #include <set>
 #include <sstream>
+#include <thread>
 
 #include "keyfleet/common/image_codec.hpp"
 #include "keyfleet/common/logging.hpp"
 #include "keyfleet/common/sqlite.hpp"
+#include "keyfleet/common/thread_name.hpp"
 #include "keyfleet/station/analysis_attempts.hpp"
 #include "keyfleet/station/analysis_exports.hpp"
 #include "keyfleet/station/analysis_pool.hpp"
@@ -97,6 +99,41 @@ TEST(AnalysisPool, DefersTheOldestWaitingJobsWhenFullAndLosesNone) {
   for (std::uint64_t s : {0, 4, 5, 6}) EXPECT_EQ(outcome[s], AnalysisStatus::kDone) << s;
   for (std::uint64_t s : {1, 2, 3}) EXPECT_EQ(outcome[s], AnalysisStatus::kDeferred) << s;
   EXPECT_EQ(pool.counters().deferred, 3u);
+}
+
+// top -H and perf tell the station's analysis threads from Fast DDS's by their names.
+TEST(AnalysisPool, NamesItsWorkerThreads) {
+  std::mutex mutex;
+  std::set<std::string> names;
+  Gate gate;  // both workers hold a job before either finishes
+  const auto step = [&](const AnalysisJob& j) {
+    {
+      std::lock_guard lock(mutex);
+      names.insert(this_thread_name());
+    }
+    return gate.pass(j);
+  };
+  {
+    AnalysisPool pool({step, step}, 4, null_logger());
+    pool.submit(job_for("r", 0));
+    pool.submit(job_for("r", 1));
+    ASSERT_TRUE(gate.wait_entered(2));
+    gate.open();
+    ASSERT_TRUE(pool.wait_until_idle(10s));
+  }
+  EXPECT_EQ(names, (std::set<std::string>{"kf-analysis-0", "kf-analysis-1"}));
+}
+
+TEST(ThreadName, CarriesThePrefixAndKeepsWhatLinuxHolds) {
+  std::string short_name, long_name;
+  std::thread([&] {
+    name_this_thread("http");
+    short_name = this_thread_name();
+    name_this_thread("a-role-longer-than-fifteen");
+    long_name = this_thread_name();
+  }).join();
+  EXPECT_EQ(short_name, "kf-http");
+  EXPECT_EQ(long_name, "kf-a-role-longe");
 }
 
 TEST(AnalysisPool, LatencyRunsFromSubmitToResultSoAQueueBehindOneWorkerShowsInIt) {

@@ -7,6 +7,7 @@
 #include "assets.hpp"
 #include "http_server.hpp"
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/common/thread_name.hpp"
 #include "keyfleet/station/web/figures.hpp"
 #include "keyfleet/station/web/run_view.hpp"
 
@@ -193,7 +194,10 @@ DashboardServer::DashboardServer(const DashboardConfig& config, const std::strin
       [this](const HttpRequest& request) { return answer(request); }, browser_protections(),
       logger_);
   port_ = server_->port();
-  publisher_ = std::thread([this] { publish_loop(); });
+  publisher_ = std::thread([this] {
+    name_this_thread("dashboard");
+    publish_loop();
+  });
 }
 
 DashboardServer::~DashboardServer() { stop(); }

@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "keyfleet/common/error.hpp"
+#include "keyfleet/common/thread_name.hpp"
 
 namespace keyfleet::station::web {
 
@@ -427,6 +428,7 @@ HttpServer::HttpServer(const std::string& address, int port, HttpLimits limits, 
   auto finished = std::make_shared<std::promise<void>>();
   state_->io_thread_done = finished->get_future();
   state_->io_thread = std::thread([state = state_.get(), finished] {
+    name_this_thread("http");
     state->io.run();
     finished->set_value();
   });
