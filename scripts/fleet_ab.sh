@@ -83,8 +83,8 @@ side new "$build"
 # build folder, which stays where it was built.
 
 if [ "$avx2_only" = 1 ]; then
-  OPENCV_CPU_DISABLE=AVX512F,AVX512-SKX,AVX512-ICL,AVX512-COMMON,AVX512BW,AVX512CD
-  export OPENCV_CPU_DISABLE=$OPENCV_CPU_DISABLE,AVX512DQ,AVX512VL
+  # shellcheck source=scripts/avx2_only.sh
+  . "$root/scripts/avx2_only.sh"
 fi
 mission="$root/configs/demo_mission.yaml"
 most=0

@@ -35,8 +35,8 @@ command -v perf >/dev/null ||
 
 "$root/scripts/build.sh" --for demo
 if [ "$avx2_only" = 1 ]; then
-  OPENCV_CPU_DISABLE=AVX512F,AVX512-SKX,AVX512-ICL,AVX512-COMMON,AVX512BW,AVX512CD
-  export OPENCV_CPU_DISABLE=$OPENCV_CPU_DISABLE,AVX512DQ,AVX512VL
+  # shellcheck source=scripts/avx2_only.sh
+  . "$root/scripts/avx2_only.sh"
 fi
 mkdir -p "$out"
 out=$(cd "$out" && pwd)

@@ -172,8 +172,8 @@ class ElementwiseSumLayer final : public OpenCvBackedLayer<cv::dnn::EltwiseLayer
           repeat_columns(src + std::size_t(y) * w, w, kx, row.data());
           for (int r = 0; r < ky; ++r) {
             const std::size_t at = (std::size_t(y) * ky + r) * ow;
-            add_floats(a + at, row.data(), dst + at,
-                       ow);  // a + b == b + a: OpenCV's floats either way
+            // a + b == b + a: OpenCV's floats either way.
+            add_floats(a + at, row.data(), dst + at, ow);
           }
         }
         if (activation) activation->forwardSlice(dst, dst, int(plane), plane, channel, channel + 1);

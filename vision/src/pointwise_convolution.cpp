@@ -78,21 +78,22 @@ void PointwiseConvolution::run(const float* src, int pixels, float* dst,
 void PointwiseConvolution::run_columns(const float* src, std::size_t src_plane, int pixels,
                                        float* dst, std::size_t dst_plane,
                                        const cv::dnn::ActivationLayer* activation) {
-  CV_Assert(runs_columns());
-  const ProductBlock block = whole_rows_block(cout_, pixels);
-  if (block.rows != block_.rows) pack(block);
-  CV_Assert(cout_ % block_.rows == 0);
+  pack_for_columns(pixels);
   run_in_place(src, src_plane, pixels, dst, dst_plane, activation);
 }
 
 void PointwiseConvolution::run_columns(const float* src, std::size_t src_plane, int pixels,
                                        float* dst, std::size_t dst_plane,
                                        const ColumnsEpilogue& epilogue) {
+  pack_for_columns(pixels);
+  run_in_place(src, src_plane, pixels, dst, dst_plane, nullptr, &epilogue);
+}
+
+void PointwiseConvolution::pack_for_columns(int pixels) {
   CV_Assert(runs_columns());
   const ProductBlock block = whole_rows_block(cout_, pixels);
   if (block.rows != block_.rows) pack(block);
   CV_Assert(cout_ % block_.rows == 0);
-  run_in_place(src, src_plane, pixels, dst, dst_plane, nullptr, &epilogue);
 }
 
 void PointwiseConvolution::run_in_place(const float* src, std::size_t src_plane, int pixels,

@@ -51,6 +51,8 @@ class PointwiseConvolution : public ProductKernel {
 
  private:
   void pack(ProductBlock block);  // the weights for blocks of that shape
+  // run_columns's: the weights packed for whole row blocks of `pixels` columns.
+  void pack_for_columns(int pixels);
   // Float, the outputs whole row blocks: src and dst used where they are.
   void run_in_place(const float* src, std::size_t src_plane, int pixels, float* dst,
                     std::size_t dst_plane, const cv::dnn::ActivationLayer* activation,
